@@ -1,0 +1,360 @@
+//! The message catalogue (DESIGN.md section 4) and the wire codes of its enums.
+
+use iceoryx2::prelude::ZeroCopySend;
+
+use crate::common::{
+    Header, PathPoseMsg, Pose2Msg, Pose3Msg, RectMsg, TimedCommandMsg, TimedPoseMsg,
+};
+use crate::{FieldLayout, message};
+
+/// Organised point clouds: up to 64 rows (elevation channels) x 2048 columns (azimuth).
+pub const MAX_CLOUD_ROWS: usize = 64;
+pub const MAX_CLOUD_COLS: usize = 2048;
+pub const MAX_CLOUD_POINTS: usize = MAX_CLOUD_ROWS * MAX_CLOUD_COLS;
+/// Occupancy grids up to 1024 x 1024 cells.
+pub const MAX_GRID_SIDE: usize = 1024;
+pub const MAX_GRID_CELLS: usize = MAX_GRID_SIDE * MAX_GRID_SIDE;
+/// Paths up to 4096 poses.
+pub const MAX_PATH_POSES: usize = 4096;
+/// Command timelines (and predicted poses) up to 512 entries.
+pub const MAX_COMMANDS: usize = 512;
+/// Bodies in the ground-truth message.
+pub const MAX_BODIES: usize = 64;
+pub const NAME_LEN: usize = 32;
+pub const TEXT_LEN: usize = 192;
+
+/// Declares a `u32` wire code enum with checked decoding.
+macro_rules! wire_enum {
+    ($(#[$m:meta])* $name:ident { $($(#[$vm:meta])* $v:ident = $n:literal),* $(,)? }) => {
+        $(#[$m])*
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+        #[repr(u32)]
+        pub enum $name { $($(#[$vm])* $v = $n),* }
+        impl $name {
+            pub fn from_u32(v: u32) -> Option<Self> {
+                match v { $($n => Some(Self::$v),)* _ => None }
+            }
+        }
+    };
+}
+
+wire_enum!(TickMode { Lockstep = 0, Realtime = 1 });
+wire_enum!(
+    /// Tick flags: bit set when that stage must act on this tick.
+    StageStatus { Done = 0, Idle = 1, Failed = 2 }
+);
+wire_enum!(
+    /// Why a plan request ended.
+    PlanStatus { Ok = 0, StartOccupied = 1, GoalOccupied = 2, NoPath = 3, Timeout = 4, InvalidRequest = 5 }
+);
+wire_enum!(
+    /// What the controller is asked to do.
+    GoalMode { Idle = 0, Follow = 1, RotateInPlace = 2 }
+);
+wire_enum!(SimCommandKind { Attach = 1, Detach = 2, Stop = 3 });
+wire_enum!(NodeState { Starting = 0, Ready = 1, Running = 2, Stopping = 3, Failed = 4 });
+wire_enum!(GridKind { Global = 0, Local = 1 });
+wire_enum!(MissionState { Starting = 0, Planning = 1, Driving = 2, Rotating = 3, Succeeded = 4, Failed = 5 });
+
+/// Bit in [`Tick::stages`]: the controller must act (and acknowledge) on this tick.
+pub const STAGE_CONTROLLER: u32 = 1 << 0;
+
+message!(
+    /// The simulator starts tick `tick` at simulated time `header.stamp_ns`.
+    Tick = "aisle.Tick.v1" size 72 {
+        header: Header,
+        dt_ns: u64,
+        /// `TickMode` code.
+        mode: u32,
+        /// `STAGE_*` bits of the stages that act on this tick.
+        stages: u32,
+        /// Seed of the run (the lidar derives its noise stream from it).
+        seed: u64,
+    }
+);
+
+message!(
+    /// A stage finished its work for `header.tick`.
+    TickDone = "aisle.TickDone.v1" size 64 {
+        header: Header,
+        /// `NodeKind` code of the stage.
+        node: u32,
+        /// `StageStatus` code.
+        status: u32,
+        /// Wall time the stage spent computing for this tick.
+        compute_ns: u64,
+    }
+);
+
+message!(
+    /// The robot as the simulator moves it: what odometry would report.
+    RobotState = "aisle.RobotState.v1" size 128 {
+        header: Header,
+        pose: Pose2Msg,
+        /// Linear and angular velocity actually applied (after wheel clamping).
+        twist: [f64; 2],
+        /// Left, right wheel speed in rad/s.
+        wheel_speeds: [f64; 2],
+        /// Index of the carried body in the scene, -1 when none.
+        carried_body: i32,
+        /// 1 when the watchdog holds the robot still (no valid command).
+        watchdog_stopped: u32,
+        /// Collision events so far (ground truth).
+        collisions: u32,
+        _pad: u32,
+        /// Goal id of the trajectory in force (0 when none).
+        active_goal_id: u64,
+    }
+);
+
+crate::layout_struct!(
+    /// A body of the world, from ground truth: name, pose, bounding box.
+    BodyTruth = "aisle.BodyTruth.v1" {
+        name: [u8; NAME_LEN],
+        pose: Pose2Msg,
+        /// Bounding box of the body: length, width (body frame) and height.
+        size: [f64; 3],
+        is_static: u8,
+        carried: u8,
+        _pad: [u8; 6],
+    }
+);
+
+message!(
+    /// Ground truth of every body, for metrics, rendering and tests only: navigation
+    /// processes must not subscribe to it.
+    WorldTruth = "aisle.WorldTruth.v1" size 5696 {
+        header: Header,
+        len: u32,
+        collisions: u32,
+        /// Smallest 2D distance between the robot (plus carried rack) and any body so far.
+        min_clearance: f64,
+        bodies: [BodyTruth; MAX_BODIES],
+    }
+);
+
+message!(
+    /// An organised lidar scan: `rows` elevation channels x `cols` azimuth channels,
+    /// row-major, xyz in the sensor frame, NaN for no return.
+    PointCloud = "aisle.PointCloud.v1" size 1573000 {
+        header: Header,
+        rows: u32,
+        cols: u32,
+        /// Sensor pose in the map frame when the scan was taken.
+        sensor_pose: Pose3Msg,
+        /// Robot base pose in the map frame when the scan was taken.
+        robot_pose: Pose2Msg,
+        /// Index of the body the robot carries, -1 when none (copied from RobotState).
+        carried_body: i32,
+        _pad: u32,
+        points: [[f32; 3]; MAX_CLOUD_POINTS],
+    }
+);
+
+message!(
+    /// An occupancy grid: row-major from the origin corner, 0 free, 1 static, 2 detected.
+    OccupancyGrid = "aisle.OccupancyGrid.v1" size 1048672 {
+        header: Header,
+        /// `GridKind` code.
+        kind: u32,
+        width: u32,
+        height: u32,
+        _pad: u32,
+        origin_x: f64,
+        origin_y: f64,
+        resolution: f64,
+        /// Incremented whenever the detections change (global map).
+        version: u64,
+        cells: [u8; MAX_GRID_CELLS],
+    }
+);
+
+message!(
+    /// Tells the mapper which footprints are not obstacles: the rack being approached for
+    /// a pick (map frame) and the carried rack (relative to the robot base).
+    MapperControl = "aisle.MapperControl.v1" size 144 {
+        header: Header,
+        ignore: RectMsg,
+        carried: RectMsg,
+    }
+);
+
+message!(
+    /// Ask the global planner for a reference path.
+    PlanRequest = "aisle.PlanRequest.v1" size 144 {
+        header: Header,
+        request_id: u64,
+        start: Pose2Msg,
+        goal: Pose2Msg,
+        footprint_length: f64,
+        footprint_width: f64,
+        margin: f64,
+        /// 1: plan on the global map with lidar detections; 0: static map only.
+        use_detections: u32,
+        max_expansions: u32,
+        /// Wall-clock bound the planner enforces on top of the expansion budget.
+        timeout_ms: u32,
+        _pad: u32,
+    }
+);
+
+message!(
+    /// The planner's answer to the request with the same `request_id`.
+    PlanResponse = "aisle.PlanResponse.v1" size 131160 {
+        header: Header,
+        request_id: u64,
+        /// `PlanStatus` code.
+        status: u32,
+        expansions: u32,
+        solve_ns: u64,
+        path_length: f64,
+        len: u32,
+        _pad: u32,
+        poses: [PathPoseMsg; MAX_PATH_POSES],
+    }
+);
+
+message!(
+    /// What the controller should do next.
+    ControllerGoal = "aisle.ControllerGoal.v1" size 131232 {
+        header: Header,
+        /// Increments with every new goal; 0 never names a goal.
+        goal_id: u64,
+        /// `GoalMode` code.
+        mode: u32,
+        len: u32,
+        footprint_length: f64,
+        footprint_width: f64,
+        margin: f64,
+        /// x, y, heading tolerances to count the goal as reached.
+        goal_tolerance: [f64; 3],
+        /// Linear and angular speed limits for this goal.
+        max_velocity: [f64; 2],
+        look_ahead_time: f64,
+        /// Final pose (the rotate-in-place target heading is `target.theta`).
+        target: Pose2Msg,
+        reference: [PathPoseMsg; MAX_PATH_POSES],
+    }
+);
+
+message!(
+    /// One controller step: a timeline of commands starting at `start_ns` (simulated),
+    /// the predicted poses, and MATLAB controllerTEB's info record.
+    Trajectory = "aisle.Trajectory.v1" size 28784 {
+        header: Header,
+        goal_id: u64,
+        /// Simulated time at which `commands[0].t` = 0 applies.
+        start_ns: u64,
+        len: u32,
+        poses_len: u32,
+        /// 0 valid, 1 collision, 2 margin, 3 turning radius, 4 time not increasing, 5 off path.
+        exit_flag: u32,
+        last_feasible_index: i32,
+        reached_goal: u32,
+        iterations: u32,
+        cost: f64,
+        solve_ns: u64,
+        max_violation: f64,
+        commands: [TimedCommandMsg; MAX_COMMANDS],
+        poses: [TimedPoseMsg; MAX_COMMANDS],
+    }
+);
+
+message!(
+    /// The controller's band, published with history 1 so a restarted controller resumes.
+    ControllerBand = "aisle.ControllerBand.v1" size 16448 {
+        header: Header,
+        goal_id: u64,
+        len: u32,
+        _pad: u32,
+        poses: [TimedPoseMsg; MAX_COMMANDS],
+    }
+);
+
+message!(
+    /// A command to the simulator from the supervisor.
+    SimCommand = "aisle.SimCommand.v1" size 96 {
+        header: Header,
+        command_id: u64,
+        /// `SimCommandKind` code.
+        kind: u32,
+        /// Scene index of the body to attach.
+        body_index: i32,
+        name: [u8; NAME_LEN],
+    }
+);
+
+message!(
+    /// Liveness and identity of a process.
+    Heartbeat = "aisle.Heartbeat.v1" size 264 {
+        header: Header,
+        /// `NodeKind` code.
+        node: u32,
+        /// `NodeState` code.
+        state: u32,
+        pid: u32,
+        _pad: u32,
+        schema_hash: u64,
+        /// Last error, UTF-8, NUL-padded.
+        text: [u8; TEXT_LEN],
+    }
+);
+
+message!(
+    /// The supervisor's view of the mission, for recorders and dashboards.
+    MissionStatus = "aisle.MissionStatus.v1" size 272 {
+        header: Header,
+        /// `MissionState` code.
+        state: u32,
+        segment: u32,
+        segments: u32,
+        replans: u32,
+        distance: f64,
+        text: [u8; TEXT_LEN],
+        _pad: [u8; 8],
+    }
+);
+
+message!(
+    /// What a joining process checks first: the supervisor's schema hash and the run seed.
+    InstanceInfo = "aisle.InstanceInfo.v1" size 72 {
+        header: Header,
+        schema_hash: u64,
+        seed: u64,
+        /// `TickMode` code.
+        mode: u32,
+        _pad: u32,
+    }
+);
+
+pub(crate) fn layouts() -> Vec<(&'static str, usize, usize, &'static [FieldLayout])> {
+    macro_rules! l {
+        ($($t:ty),*) => { vec![$((<$t>::TYPE_NAME, core::mem::size_of::<$t>(), core::mem::align_of::<$t>(), <$t>::FIELDS)),*] };
+    }
+    l!(
+        Header,
+        Pose2Msg,
+        Pose3Msg,
+        PathPoseMsg,
+        TimedCommandMsg,
+        TimedPoseMsg,
+        RectMsg,
+        BodyTruth,
+        Tick,
+        TickDone,
+        RobotState,
+        WorldTruth,
+        PointCloud,
+        OccupancyGrid,
+        MapperControl,
+        PlanRequest,
+        PlanResponse,
+        ControllerGoal,
+        Trajectory,
+        ControllerBand,
+        SimCommand,
+        Heartbeat,
+        MissionStatus,
+        InstanceInfo
+    )
+}

@@ -1,0 +1,21 @@
+//! Every message the aisle processes exchange, as fixed-layout `#[repr(C)]` types that
+//! live directly in iceoryx2 shared memory.
+//!
+//! Rules: no pointers, no heap, no `Option` of pointers; variable-length data is a
+//! fixed-capacity array plus a `len`. Every type has a versioned type name
+//! (`aisle.PointCloud.v1`), a compile-time size assertion, and a field-by-field layout
+//! that feeds the [`schema_hash`]. All-zero bytes are a valid value of every message
+//! ([`ZeroedValid`]), so large messages are zero-filled and then written in place in the
+//! loaned sample, never built on the stack.
+//!
+//! This crate knows the shapes of messages and the names of services; it does not know
+//! how they are sent (see `aisle-bus`) or what the algorithms do with them.
+
+mod catalog;
+mod common;
+mod layout;
+pub mod services;
+
+pub use catalog::*;
+pub use common::*;
+pub use layout::{FieldLayout, Message, ZeroedValid, all_layouts, schema_hash, schema_hash_hex};

@@ -1,0 +1,1 @@
+//! aisle-global-planner

@@ -1,0 +1,305 @@
+//! `LidarConfig`: the scan pattern, range, noise and mounting read from `config/lidar.toml`.
+//!
+//! Defaults are the seed's numbers (SCENARIO.md). `validate` names the offending key.
+//! This module knows nothing of the scene, the raycaster or the URDF: the mounting link
+//! and offset are only carried here for the node, which resolves them to a sensor pose.
+
+use aisle_config::ConfigError;
+use serde::Deserialize;
+use std::path::Path;
+
+/// Zero-mean Gaussian range noise, drawn from a seeded stream (see `noise`).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NoiseConfig {
+    pub enabled: bool,
+    /// One standard deviation, metres.
+    pub sigma: f64,
+    pub seed: u64,
+}
+
+impl Default for NoiseConfig {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            sigma: 0.002,
+            seed: 1,
+        }
+    }
+}
+
+/// Where the sensor sits on the robot: a URDF link plus an offset from it.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MountConfig {
+    pub link: String,
+    /// Offset of the sensor origin in the link frame, metres.
+    pub xyz: [f64; 3],
+    /// Roll, pitch, yaw of the sensor in the link frame, radians.
+    pub rpy: [f64; 3],
+}
+
+impl Default for MountConfig {
+    fn default() -> Self {
+        Self {
+            link: "front_fender_link".to_string(),
+            xyz: [0.25, 0.1, 0.2],
+            rpy: [0.0, 0.0, 0.0],
+        }
+    }
+}
+
+/// The whole lidar configuration.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LidarConfig {
+    /// Returns farther than this (metres, along the ray) are NaN.
+    pub max_range: f64,
+    pub azimuth_min_deg: f64,
+    pub azimuth_max_deg: f64,
+    pub azimuth_step_deg: f64,
+    pub elevation_min_deg: f64,
+    pub elevation_max_deg: f64,
+    pub elevation_step_deg: f64,
+    pub rate_hz: f64,
+    /// Organised output keeps one slot per ray (NaN for no return). When false the node
+    /// packs the returns to the front with [`crate::compact_returns`].
+    pub organized: bool,
+    /// Whether the floor plane z = 0 returns rays. With the seed's elevations (0..30 deg)
+    /// and a level mount no ray points down, so this only matters for tilted poses or
+    /// negative elevations.
+    pub hit_floor: bool,
+    pub noise: NoiseConfig,
+    pub mount: MountConfig,
+}
+
+impl Default for LidarConfig {
+    fn default() -> Self {
+        Self {
+            max_range: 12.0,
+            azimuth_min_deg: -120.0,
+            azimuth_max_deg: 120.0,
+            azimuth_step_deg: 0.2,
+            elevation_min_deg: 0.0,
+            elevation_max_deg: 30.0,
+            elevation_step_deg: 1.0,
+            rate_hz: 10.0,
+            organized: true,
+            hit_floor: true,
+            noise: NoiseConfig::default(),
+            mount: MountConfig::default(),
+        }
+    }
+}
+
+/// A value that parsed but cannot be used; `key` is the dotted TOML key.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("key `{key}`: {reason}")]
+pub struct InvalidConfig {
+    pub key: &'static str,
+    pub reason: String,
+}
+
+fn invalid(key: &'static str, reason: impl Into<String>) -> InvalidConfig {
+    InvalidConfig {
+        key,
+        reason: reason.into(),
+    }
+}
+
+/// Rays beyond this count would make the organised cloud unreasonably large for one
+/// shared-memory sample; it also keeps the channel arithmetic far from overflow.
+const MAX_CHANNELS: usize = 100_000;
+
+/// Number of channels of a `[min, max]` span sampled every `step`, both ends included.
+fn channels(
+    min: f64,
+    max: f64,
+    step: f64,
+    keys: [&'static str; 3],
+) -> Result<usize, InvalidConfig> {
+    let [kmin, kmax, kstep] = keys;
+    if !min.is_finite() {
+        return Err(invalid(kmin, format!("must be finite, got {min}")));
+    }
+    if !max.is_finite() {
+        return Err(invalid(kmax, format!("must be finite, got {max}")));
+    }
+    if max < min {
+        return Err(invalid(kmax, format!("{max} is below the minimum {min}")));
+    }
+    if !(step.is_finite() && step > 0.0) {
+        return Err(invalid(kstep, format!("must be positive, got {step}")));
+    }
+    let intervals = (max - min) / step;
+    if intervals + 1.0 > MAX_CHANNELS as f64 {
+        return Err(invalid(
+            kstep,
+            format!("gives more than {MAX_CHANNELS} channels"),
+        ));
+    }
+    let n = intervals.round();
+    // Relative tolerance: 240 / 0.2 is 1199.9999999999998 in binary floating point.
+    if (intervals - n).abs() > 1e-6 * intervals.max(1.0) {
+        return Err(invalid(
+            kstep,
+            format!("{step} does not divide the span {min}..{max}"),
+        ));
+    }
+    Ok(n as usize + 1)
+}
+
+impl LidarConfig {
+    /// Number of azimuth channels (columns). Call after `validate`.
+    pub fn columns(&self) -> Result<usize, InvalidConfig> {
+        channels(
+            self.azimuth_min_deg,
+            self.azimuth_max_deg,
+            self.azimuth_step_deg,
+            ["azimuth_min_deg", "azimuth_max_deg", "azimuth_step_deg"],
+        )
+    }
+
+    /// Number of elevation channels (rows).
+    pub fn rows(&self) -> Result<usize, InvalidConfig> {
+        channels(
+            self.elevation_min_deg,
+            self.elevation_max_deg,
+            self.elevation_step_deg,
+            ["elevation_min_deg", "elevation_max_deg", "elevation_step_deg"],
+        )
+    }
+
+    pub fn validate(&self) -> Result<(), InvalidConfig> {
+        if !(self.max_range.is_finite() && self.max_range > 0.0) {
+            return Err(invalid(
+                "max_range",
+                format!("must be positive and finite, got {}", self.max_range),
+            ));
+        }
+        self.columns()?;
+        if self.azimuth_max_deg - self.azimuth_min_deg > 360.0 {
+            return Err(invalid(
+                "azimuth_max_deg",
+                "the azimuth span exceeds 360 deg",
+            ));
+        }
+        if self.elevation_min_deg < -90.0 {
+            return Err(invalid("elevation_min_deg", "must be >= -90 deg"));
+        }
+        if self.elevation_max_deg > 90.0 {
+            return Err(invalid("elevation_max_deg", "must be <= 90 deg"));
+        }
+        self.rows()?;
+        if self.rows()? * self.columns()? > MAX_CHANNELS * 10 {
+            return Err(invalid(
+                "azimuth_step_deg",
+                "rows x columns exceeds one million rays",
+            ));
+        }
+        if !(self.rate_hz.is_finite() && self.rate_hz > 0.0) {
+            return Err(invalid(
+                "rate_hz",
+                format!("must be positive, got {}", self.rate_hz),
+            ));
+        }
+        if !(self.noise.sigma.is_finite() && self.noise.sigma >= 0.0) {
+            return Err(invalid(
+                "noise.sigma",
+                format!("must be >= 0, got {}", self.noise.sigma),
+            ));
+        }
+        if self.mount.link.is_empty() {
+            return Err(invalid("mount.link", "empty link name"));
+        }
+        if !self.mount.xyz.iter().all(|v| v.is_finite()) {
+            return Err(invalid("mount.xyz", "not finite"));
+        }
+        if !self.mount.rpy.iter().all(|v| v.is_finite()) {
+            return Err(invalid("mount.rpy", "not finite"));
+        }
+        Ok(())
+    }
+
+    /// Parses `text` (as if read from `path`) and validates it.
+    pub fn parse(path: &Path, text: &str) -> Result<LidarConfig, ConfigError> {
+        let cfg: LidarConfig = aisle_config::parse_toml(path, text)?;
+        cfg.validate()
+            .map_err(|e| ConfigError::invalid(path, text, e.key, e.reason))?;
+        Ok(cfg)
+    }
+
+    /// Reads, parses and validates `path`.
+    pub fn load(path: &Path) -> Result<LidarConfig, ConfigError> {
+        let (cfg, text): (LidarConfig, String) = aisle_config::load_toml(path)?;
+        cfg.validate()
+            .map_err(|e| ConfigError::invalid(path, &text, e.key, e.reason))?;
+        Ok(cfg)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn shipped() -> std::path::PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/lidar.toml")
+    }
+
+    #[test]
+    fn shipped_file_equals_the_seed_defaults() {
+        let cfg = LidarConfig::load(&shipped()).unwrap();
+        assert_eq!(cfg, LidarConfig::default());
+        assert_eq!(cfg.columns().unwrap(), 1201);
+        assert_eq!(cfg.rows().unwrap(), 31);
+    }
+
+    #[test]
+    fn unknown_key_is_named() {
+        let e = LidarConfig::parse(Path::new("l.toml"), "max_range = 12.0\nmax_rnage = 3\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("l.toml:2:") && e.contains("max_rnage"), "{e}");
+        let e = LidarConfig::parse(Path::new("l.toml"), "[noise]\nsigmaa = 0.1\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("sigmaa"), "{e}");
+    }
+
+    #[test]
+    fn negative_range_is_named() {
+        let e = LidarConfig::parse(Path::new("l.toml"), "rate_hz = 10.0\nmax_range = -1.0\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("l.toml:2:") && e.contains("`max_range`"), "{e}");
+    }
+
+    #[test]
+    fn step_that_does_not_divide_the_span_is_named() {
+        let e = LidarConfig::parse(Path::new("l.toml"), "azimuth_step_deg = 0.7\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("`azimuth_step_deg`") && e.contains("divide"), "{e}");
+        let e = LidarConfig::parse(Path::new("l.toml"), "elevation_step_deg = 0.0\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("`elevation_step_deg`"), "{e}");
+    }
+
+    #[test]
+    fn other_bad_values_are_named() {
+        let cases = [
+            ("elevation_max_deg = 95.0", "elevation_max_deg"),
+            ("azimuth_min_deg = -200.0\nazimuth_max_deg = 200.0", "azimuth_max_deg"),
+            ("rate_hz = 0.0", "rate_hz"),
+            ("[noise]\nsigma = -0.1", "noise.sigma"),
+            ("[mount]\nlink = \"\"", "mount.link"),
+        ];
+        for (text, key) in cases {
+            let e = LidarConfig::parse(Path::new("l.toml"), text)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(&format!("`{key}`")), "{text}: {e}");
+        }
+    }
+}

@@ -1,0 +1,1 @@
+//! aisle-teb-controller
