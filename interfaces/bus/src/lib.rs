@@ -1,1 +1,28 @@
-//! aisle-bus
+//! A thin typed layer over iceoryx2 for the aisle processes.
+//!
+//! - [`Instance`]: one isolated iceoryx2 instance per launch (unique prefix and root),
+//!   handed to every child, and removed without a trace when the launch ends.
+//! - [`Bus`]: a process's membership: its iceoryx2 node, the schema-hash check on join,
+//!   heartbeats, and cleanup of resources left by dead nodes.
+//! - [`Publisher`] / [`Subscriber`]: typed pub/sub ports, each paired with an event
+//!   service of the same name so a process sleeps until data arrives or a deadline passes.
+//!   Large messages are zero-filled and written in place in the loaned sample.
+//! - [`signals`]: SIGINT/SIGTERM become a stop request that every wait loop checks.
+//!
+//! Knows the message types and service names, not what any process computes. The tick
+//! protocol is spelled out in `tick.rs`; request/response is built from two pub/sub
+//! services (`request.rs`) so that a recorder sees both directions.
+
+mod bus;
+pub mod clock;
+mod error;
+mod instance;
+mod port;
+mod qos;
+pub mod signals;
+
+pub use bus::{Bus, HeartbeatSender};
+pub use error::BusError;
+pub use instance::Instance;
+pub use port::{Publisher, Stamp, Subscriber, WaitOutcome};
+pub use qos::Qos;

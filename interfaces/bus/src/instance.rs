@@ -1,0 +1,138 @@
+//! One isolated iceoryx2 instance: a unique file prefix (for /dev/shm) and a root
+//! directory (for service and node metadata), so parallel runs never see each other.
+
+use crate::BusError;
+use iceoryx2::config::Config;
+use iceoryx2::prelude::*;
+use std::path::{Path as StdPath, PathBuf};
+use std::sync::atomic::{AtomicU32, Ordering};
+
+static COUNTER: AtomicU32 = AtomicU32::new(0);
+
+/// Where an instance lives. Passed to every child on its command line.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Instance {
+    /// File-name prefix of every shared-memory object, e.g. `aisle_1234_0_`.
+    pub prefix: String,
+    /// Directory holding the instance's service and node metadata.
+    pub root: PathBuf,
+}
+
+impl Instance {
+    /// A fresh instance under `base` (e.g. `/tmp/aisle`): the prefix combines the pid,
+    /// a per-process counter and the monotonic clock, so concurrent launches differ.
+    pub fn unique(base: &StdPath) -> Instance {
+        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+        let t = crate::clock::monotonic_ns() % 1_000_000_000;
+        let prefix = format!("aisle{}x{}x{}_", std::process::id(), n, t);
+        Instance {
+            root: base.join(&prefix),
+            prefix,
+        }
+    }
+
+    pub fn new(prefix: impl Into<String>, root: impl Into<PathBuf>) -> Result<Instance, BusError> {
+        let prefix = prefix.into();
+        let root = root.into();
+        if prefix.is_empty()
+            || prefix.len() > 48
+            || !prefix
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_')
+        {
+            return Err(BusError::Instance {
+                prefix,
+                what: "the prefix must be 1-48 characters of [A-Za-z0-9_]".into(),
+            });
+        }
+        if !root.is_absolute() {
+            return Err(BusError::Instance {
+                prefix,
+                what: format!("the root {} must be an absolute path", root.display()),
+            });
+        }
+        Ok(Instance { prefix, root })
+    }
+
+    /// The iceoryx2 configuration of this instance.
+    pub fn iceoryx_config(&self) -> Result<Config, BusError> {
+        let err = |what: String| BusError::Instance {
+            prefix: self.prefix.clone(),
+            what,
+        };
+        let mut cfg = Config::default();
+        cfg.global.prefix = FileName::new(self.prefix.as_bytes())
+            .map_err(|e| err(format!("invalid prefix: {e:?}")))?;
+        let mut root = self.root.to_string_lossy().into_owned();
+        if !root.ends_with('/') {
+            root.push('/');
+        }
+        let path = iceoryx2::prelude::Path::new(root.as_bytes())
+            .map_err(|e| err(format!("invalid root {root}: {e:?}")))?;
+        cfg.global.set_root_path(&path);
+        Ok(cfg)
+    }
+
+    /// Creates the root directory, readable and writable by the owner only.
+    pub fn create_root(&self) -> Result<(), BusError> {
+        use std::os::unix::fs::DirBuilderExt;
+        std::fs::DirBuilder::new()
+            .recursive(true)
+            .mode(0o700)
+            .create(&self.root)
+            .map_err(|e| BusError::Instance {
+                prefix: self.prefix.clone(),
+                what: format!("cannot create {}: {e}", self.root.display()),
+            })
+    }
+
+    /// Shared-memory files of this instance currently in /dev/shm.
+    pub fn shm_files(&self) -> Vec<PathBuf> {
+        let Ok(dir) = std::fs::read_dir("/dev/shm") else {
+            return Vec::new();
+        };
+        let mut files: Vec<PathBuf> = dir
+            .filter_map(Result::ok)
+            .filter(|e| e.file_name().to_string_lossy().starts_with(&self.prefix))
+            .map(|e| e.path())
+            .collect();
+        files.sort();
+        files
+    }
+
+    /// Removes everything the instance left: its root directory and its /dev/shm files.
+    /// Call only when no process of the instance is running.
+    pub fn remove(&self) -> std::io::Result<()> {
+        for f in self.shm_files() {
+            match std::fs::remove_file(&f) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(e),
+                _ => {}
+            }
+        }
+        match std::fs::remove_dir_all(&self.root) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e),
+            _ => Ok(()),
+        }
+    }
+
+    /// True when nothing of the instance remains on disk or in /dev/shm.
+    pub fn is_gone(&self) -> bool {
+        self.shm_files().is_empty() && !self.root.exists()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unique_instances_differ_and_validate() {
+        let a = Instance::unique(StdPath::new("/tmp/aisle-test"));
+        let b = Instance::unique(StdPath::new("/tmp/aisle-test"));
+        assert_ne!(a.prefix, b.prefix);
+        assert!(Instance::new(a.prefix.clone(), a.root.clone()).is_ok());
+        assert!(Instance::new("bad/prefix", "/tmp").is_err());
+        assert!(Instance::new("ok", "relative/root").is_err());
+        assert!(a.iceoryx_config().is_ok());
+    }
+}

@@ -1,0 +1,284 @@
+//! Typed publish/subscribe ports, each paired with an event service of the same name.
+
+use crate::{BusError, Qos, clock, signals};
+use aisle_messages::{Message, NodeKind};
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::port::publisher::Publisher as IoxPublisher;
+use iceoryx2::port::subscriber::Subscriber as IoxSubscriber;
+use iceoryx2::prelude::*;
+use iceoryx2::sample::Sample;
+use std::time::{Duration, Instant};
+
+/// The causal stamps a message carries: simulated time, the tick, and the wall time at
+/// which that tick started.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Stamp {
+    pub stamp_ns: u64,
+    pub tick: u64,
+    pub tick_wall_ns: u64,
+}
+
+impl Stamp {
+    pub fn of(header: &aisle_messages::Header) -> Stamp {
+        Stamp {
+            stamp_ns: header.stamp_ns,
+            tick: header.tick,
+            tick_wall_ns: header.tick_wall_ns,
+        }
+    }
+}
+
+/// Longest single sleep inside a wait, so signals and heartbeats are served promptly.
+pub(crate) const WAIT_SLICE: Duration = Duration::from_millis(50);
+
+pub struct Publisher<M: Message> {
+    service: &'static str,
+    port: IoxPublisher<ipc::Service, M, ()>,
+    notifier: Notifier<ipc::Service>,
+    source: NodeKind,
+    seq: u64,
+}
+
+impl<M: Message> Publisher<M> {
+    pub(crate) fn new(
+        node: &Node<ipc::Service>,
+        service: &'static str,
+        source: NodeKind,
+    ) -> Result<Self, BusError> {
+        let qos = Qos::for_service(service);
+        let name: ServiceName = service
+            .try_into()
+            .map_err(|e| BusError::service(service, e))?;
+        let svc = node
+            .service_builder(&name)
+            .publish_subscribe::<M>()
+            .max_publishers(qos.max_publishers)
+            .max_subscribers(qos.max_subscribers)
+            .history_size(qos.history)
+            .subscriber_max_buffer_size(qos.buffer)
+            .subscriber_max_borrowed_samples(2)
+            .enable_safe_overflow(true)
+            .max_nodes(24)
+            .open_or_create()
+            .map_err(|e| BusError::service(service, e))?;
+        let port = svc
+            .publisher_builder()
+            .max_loaned_samples(1)
+            .create()
+            .map_err(|e| BusError::service(service, e))?;
+        let notifier = event_service(node, service)?
+            .notifier_builder()
+            .create()
+            .map_err(|e| BusError::service(service, e))?;
+        Ok(Self {
+            service,
+            port,
+            notifier,
+            source,
+            seq: 0,
+        })
+    }
+
+    pub fn service(&self) -> &'static str {
+        self.service
+    }
+
+    /// Loans a sample, zero-fills it in shared memory, writes the header, lets `fill`
+    /// write the payload in place, sends it and wakes the subscribers. Returns the
+    /// sequence number of the message.
+    pub fn publish(&mut self, stamp: Stamp, fill: impl FnOnce(&mut M)) -> Result<u64, BusError> {
+        let mut sample = self
+            .port
+            .loan_uninit()
+            .map_err(|e| BusError::service(self.service, e))?;
+        // SAFETY: `M: ZeroedValid` guarantees all-zero bytes are a valid `M`; writing
+        // zeros over the whole sample initialises it without building it on the stack.
+        let mut sample = unsafe {
+            sample.payload_mut().as_mut_ptr().write_bytes(0, 1);
+            sample.assume_init()
+        };
+        self.seq += 1;
+        let msg = sample.payload_mut();
+        fill(msg);
+        let h = msg.header_mut();
+        h.seq = self.seq;
+        h.stamp_ns = stamp.stamp_ns;
+        h.tick = stamp.tick;
+        h.tick_wall_ns = stamp.tick_wall_ns;
+        h.publish_wall_ns = clock::monotonic_ns();
+        h.source = self.source as u32;
+        sample
+            .send()
+            .map_err(|e| BusError::service(self.service, e))?;
+        self.notifier
+            .notify()
+            .map_err(|e| BusError::service(self.service, e))?;
+        Ok(self.seq)
+    }
+
+    /// Connects subscribers that appeared since the last send and hands them the history.
+    /// Publishers of state (history > 0) call this from their wait loops, because iceoryx2
+    /// delivers history to a late subscriber only when its publisher updates connections.
+    pub fn update_connections(&self) -> Result<(), BusError> {
+        use iceoryx2::port::update_connections::UpdateConnections;
+        self.port
+            .update_connections()
+            .map_err(|e| BusError::service(self.service, e))
+    }
+
+    /// Publishes an exact copy of `bytes` (a recorded payload) without touching the header.
+    pub fn publish_bytes(&mut self, bytes: &[u8]) -> Result<(), BusError> {
+        if bytes.len() != std::mem::size_of::<M>() {
+            return Err(BusError::Service {
+                service: self.service.to_string(),
+                what: format!(
+                    "payload of {} bytes, {} needs {}",
+                    bytes.len(),
+                    M::TYPE_NAME,
+                    std::mem::size_of::<M>()
+                ),
+            });
+        }
+        let mut sample = self
+            .port
+            .loan_uninit()
+            .map_err(|e| BusError::service(self.service, e))?;
+        // SAFETY: the byte count equals size_of::<M>() and every bit pattern of the
+        // numeric fields of an `M: ZeroedValid` is a valid value.
+        let sample = unsafe {
+            std::ptr::copy_nonoverlapping(
+                bytes.as_ptr(),
+                sample.payload_mut().as_mut_ptr() as *mut u8,
+                bytes.len(),
+            );
+            sample.assume_init()
+        };
+        sample
+            .send()
+            .map_err(|e| BusError::service(self.service, e))?;
+        self.notifier
+            .notify()
+            .map_err(|e| BusError::service(self.service, e))?;
+        Ok(())
+    }
+}
+
+/// What ended a wait.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WaitOutcome {
+    /// The predicate matched a sample (returned alongside).
+    Matched,
+    /// The deadline passed.
+    TimedOut,
+}
+
+pub struct Subscriber<M: Message> {
+    service: &'static str,
+    port: IoxSubscriber<ipc::Service, M, ()>,
+    listener: Listener<ipc::Service>,
+}
+
+impl<M: Message> Subscriber<M> {
+    pub(crate) fn new(node: &Node<ipc::Service>, service: &'static str) -> Result<Self, BusError> {
+        let qos = Qos::for_service(service);
+        let name: ServiceName = service
+            .try_into()
+            .map_err(|e| BusError::service(service, e))?;
+        let svc = node
+            .service_builder(&name)
+            .publish_subscribe::<M>()
+            .max_publishers(qos.max_publishers)
+            .max_subscribers(qos.max_subscribers)
+            .history_size(qos.history)
+            .subscriber_max_buffer_size(qos.buffer)
+            .subscriber_max_borrowed_samples(2)
+            .enable_safe_overflow(true)
+            .max_nodes(24)
+            .open_or_create()
+            .map_err(|e| BusError::service(service, e))?;
+        let mut builder = svc.subscriber_builder().buffer_size(qos.buffer);
+        if qos.history > 0 {
+            builder = builder.history_request(qos.history);
+        }
+        let port = builder
+            .create()
+            .map_err(|e| BusError::service(service, e))?;
+        let listener = event_service(node, service)?
+            .listener_builder()
+            .create()
+            .map_err(|e| BusError::service(service, e))?;
+        Ok(Self {
+            service,
+            port,
+            listener,
+        })
+    }
+
+    pub fn service(&self) -> &'static str {
+        self.service
+    }
+
+    /// The next sample in arrival order, if any.
+    pub fn receive(&self) -> Result<Option<Sample<ipc::Service, M, ()>>, BusError> {
+        self.port
+            .receive()
+            .map_err(|e| BusError::service(self.service, e))
+    }
+
+    /// Drains the buffer and returns the newest sample, if any.
+    pub fn latest(&self) -> Result<Option<Sample<ipc::Service, M, ()>>, BusError> {
+        let mut last = None;
+        while let Some(s) = self.receive()? {
+            last = Some(s);
+        }
+        Ok(last)
+    }
+
+    /// Waits until a sample satisfies `pred` or `timeout` passes; samples that do not
+    /// match are dropped. Sleeps on the paired event service in slices so that a stop
+    /// request ends the wait (`BusError::StopRequested`) and `on_slice` (heartbeats) runs.
+    pub fn wait_for(
+        &self,
+        timeout: Duration,
+        mut pred: impl FnMut(&M) -> bool,
+        mut on_slice: impl FnMut(),
+    ) -> Result<(WaitOutcome, Option<Sample<ipc::Service, M, ()>>), BusError> {
+        let start = Instant::now();
+        loop {
+            while let Some(s) = self.receive()? {
+                if pred(&s) {
+                    return Ok((WaitOutcome::Matched, Some(s)));
+                }
+            }
+            if signals::stop_requested() {
+                return Err(BusError::StopRequested);
+            }
+            let elapsed = start.elapsed();
+            if elapsed >= timeout {
+                return Ok((WaitOutcome::TimedOut, None));
+            }
+            let slice = (timeout - elapsed).min(WAIT_SLICE);
+            // An interrupted wait (EINTR from a signal) is not an error: the loop
+            // re-checks the stop flag.
+            let _ = self.listener.timed_wait(|_| {}, slice);
+            on_slice();
+        }
+    }
+}
+
+fn event_service(
+    node: &Node<ipc::Service>,
+    service: &str,
+) -> Result<iceoryx2::service::port_factory::event::PortFactory<ipc::Service>, BusError> {
+    let name: ServiceName = service
+        .try_into()
+        .map_err(|e| BusError::service(service, e))?;
+    node.service_builder(&name)
+        .event()
+        .max_notifiers(16)
+        .max_listeners(16)
+        .max_nodes(24)
+        .open_or_create()
+        .map_err(|e| BusError::service(service, e))
+}

@@ -1,0 +1,132 @@
+//! Two processes' worth of bus in one test process: isolation, schema check, in-place
+//! publishing, waiting with a deadline, and cleanup of the instance.
+
+use aisle_bus::{Bus, BusError, Instance, Stamp, WaitOutcome};
+use aisle_messages::{NodeKind, PointCloud, TickMode, services};
+use std::path::Path;
+use std::time::Duration;
+
+fn instance() -> Instance {
+    Instance::unique(Path::new("/tmp/aisle-bus-tests"))
+}
+
+/// Joins `inst` from another thread (as another process would) while this thread, the
+/// supervisor, keeps its announcement's connections up to date.
+fn join_while_serving(
+    inst: &Instance,
+    info: &aisle_bus::Publisher<aisle_messages::InstanceInfo>,
+    kind: NodeKind,
+) -> Result<aisle_messages::InstanceInfo, BusError> {
+    let inst2 = inst.clone();
+    let joiner =
+        std::thread::spawn(move || Bus::join(&inst2, kind, Duration::from_secs(2)).map(|(_, i)| i));
+    while !joiner.is_finished() {
+        info.update_connections().unwrap();
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    joiner.join().unwrap()
+}
+
+#[test]
+fn a_large_message_arrives_intact_and_the_instance_leaves_nothing() {
+    let inst = instance();
+    {
+        let (sup, announcement) = Bus::create_instance(&inst, 7, TickMode::Lockstep).unwrap();
+        let info = join_while_serving(&inst, &announcement, NodeKind::Lidar).unwrap();
+        assert_eq!(info.seed, 7);
+        let sub = sup.subscriber::<PointCloud>(services::POINT_CLOUD).unwrap();
+        let mut publ = sup.publisher::<PointCloud>(services::POINT_CLOUD).unwrap();
+        publ.publish(
+            Stamp {
+                stamp_ns: 100,
+                tick: 1,
+                tick_wall_ns: 5,
+            },
+            |m| {
+                m.rows = 31;
+                m.cols = 1201;
+                m.points[37_230] = [1.0, 2.0, 3.0];
+                m.points[0] = [f32::NAN; 3];
+            },
+        )
+        .unwrap();
+        let (outcome, sample) = sub
+            .wait_for(Duration::from_secs(1), |m| m.header.tick == 1, || {})
+            .unwrap();
+        assert_eq!(outcome, WaitOutcome::Matched);
+        let m = sample.unwrap();
+        assert_eq!(
+            (m.rows, m.cols, m.header.seq, m.header.stamp_ns),
+            (31, 1201, 1, 100)
+        );
+        assert_eq!(m.header.source, NodeKind::Supervisor as u32);
+        assert_eq!(m.points[37_230], [1.0, 2.0, 3.0]);
+        assert!(m.points[0][0].is_nan());
+        assert_eq!(m.points[5], [0.0; 3], "the loan is zero-filled");
+        assert!(!inst.shm_files().is_empty());
+    }
+    inst.remove().unwrap();
+    assert!(inst.is_gone());
+}
+
+#[test]
+fn a_wait_without_data_times_out() {
+    let inst = instance();
+    {
+        let (sup, _info) = Bus::create_instance(&inst, 1, TickMode::Lockstep).unwrap();
+        let sub = sup.subscriber::<PointCloud>(services::POINT_CLOUD).unwrap();
+        let (outcome, sample) = sub
+            .wait_for(Duration::from_millis(120), |_| true, || {})
+            .unwrap();
+        assert_eq!(outcome, WaitOutcome::TimedOut);
+        assert!(sample.is_none());
+    }
+    inst.remove().unwrap();
+}
+
+#[test]
+fn a_process_of_another_schema_is_refused_with_both_hashes() {
+    let inst = instance();
+    {
+        let foreign = aisle_messages::schema_hash() ^ 0xdead_beef;
+        let (_sup, announcement) = Bus::announce(&inst, foreign, 1, TickMode::Lockstep).unwrap();
+        let err = join_while_serving(&inst, &announcement, NodeKind::Mapper)
+            .err()
+            .expect("must be refused");
+        assert!(matches!(err, BusError::SchemaMismatch { .. }));
+        let text = err.to_string();
+        assert!(text.contains(&aisle_messages::schema_hash_hex()), "{text}");
+        assert!(text.contains(&format!("{foreign:016x}")), "{text}");
+    }
+    inst.remove().unwrap();
+}
+
+#[test]
+fn joining_an_instance_without_supervisor_fails_in_bounded_time() {
+    let inst = instance();
+    inst.create_root().unwrap();
+    let err = Bus::join(&inst, NodeKind::Lidar, Duration::from_millis(150))
+        .err()
+        .unwrap();
+    assert!(matches!(err, BusError::NoSupervisor { .. }), "{err}");
+    inst.remove().unwrap();
+}
+
+#[test]
+fn two_instances_do_not_see_each_other() {
+    let a = instance();
+    let b = instance();
+    {
+        let (sa, _) = Bus::create_instance(&a, 1, TickMode::Lockstep).unwrap();
+        let (sb, _) = Bus::create_instance(&b, 1, TickMode::Lockstep).unwrap();
+        let sub_b = sb.subscriber::<PointCloud>(services::POINT_CLOUD).unwrap();
+        let mut pub_a = sa.publisher::<PointCloud>(services::POINT_CLOUD).unwrap();
+        pub_a.publish(Stamp::default(), |_| {}).unwrap();
+        let (outcome, _) = sub_b
+            .wait_for(Duration::from_millis(100), |_| true, || {})
+            .unwrap();
+        assert_eq!(outcome, WaitOutcome::TimedOut);
+    }
+    a.remove().unwrap();
+    b.remove().unwrap();
+}
