@@ -130,10 +130,10 @@ impl Bus {
     pub fn cleanup_dead_nodes(&self) -> usize {
         let mut cleaned = 0;
         let _ = Node::<ipc::Service>::list(&self.config, |state| {
-            if let iceoryx2::node::NodeState::Dead(view) = state {
-                if view.try_remove_stale_resources().is_ok() {
-                    cleaned += 1;
-                }
+            if let iceoryx2::node::NodeState::Dead(view) = state
+                && view.try_remove_stale_resources().is_ok()
+            {
+                cleaned += 1;
             }
             CallbackProgression::Continue
         });

@@ -24,5 +24,5 @@ pub mod signals;
 pub use bus::{Bus, HeartbeatSender};
 pub use error::BusError;
 pub use instance::Instance;
-pub use port::{Publisher, Stamp, Subscriber, WaitOutcome};
+pub use port::{Publisher, Received, Stamp, Subscriber, WaitOutcome};
 pub use qos::Qos;

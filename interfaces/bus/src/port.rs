@@ -164,6 +164,9 @@ impl<M: Message> Publisher<M> {
     }
 }
 
+/// A received sample: dereferences to the message, in shared memory.
+pub type Received<M> = Sample<ipc::Service, M, ()>;
+
 /// What ended a wait.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum WaitOutcome {
@@ -220,14 +223,14 @@ impl<M: Message> Subscriber<M> {
     }
 
     /// The next sample in arrival order, if any.
-    pub fn receive(&self) -> Result<Option<Sample<ipc::Service, M, ()>>, BusError> {
+    pub fn receive(&self) -> Result<Option<Received<M>>, BusError> {
         self.port
             .receive()
             .map_err(|e| BusError::service(self.service, e))
     }
 
     /// Drains the buffer and returns the newest sample, if any.
-    pub fn latest(&self) -> Result<Option<Sample<ipc::Service, M, ()>>, BusError> {
+    pub fn latest(&self) -> Result<Option<Received<M>>, BusError> {
         let mut last = None;
         while let Some(s) = self.receive()? {
             last = Some(s);
@@ -243,7 +246,7 @@ impl<M: Message> Subscriber<M> {
         timeout: Duration,
         mut pred: impl FnMut(&M) -> bool,
         mut on_slice: impl FnMut(),
-    ) -> Result<(WaitOutcome, Option<Sample<ipc::Service, M, ()>>), BusError> {
+    ) -> Result<(WaitOutcome, Option<Received<M>>), BusError> {
         let start = Instant::now();
         loop {
             while let Some(s) = self.receive()? {
