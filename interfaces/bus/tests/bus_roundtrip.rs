@@ -91,8 +91,7 @@ fn a_process_of_another_schema_is_refused_with_both_hashes() {
         let foreign = aisle_messages::schema_hash() ^ 0xdead_beef;
         let (_sup, announcement) = Bus::announce(&inst, foreign, 1, TickMode::Lockstep).unwrap();
         let err = join_while_serving(&inst, &announcement, NodeKind::Mapper)
-            .err()
-            .expect("must be refused");
+            .expect_err("must be refused");
         assert!(matches!(err, BusError::SchemaMismatch { .. }));
         let text = err.to_string();
         assert!(text.contains(&aisle_messages::schema_hash_hex()), "{text}");

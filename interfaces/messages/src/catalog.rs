@@ -51,7 +51,10 @@ wire_enum!(
     /// What the controller is asked to do.
     GoalMode { Idle = 0, Follow = 1, RotateInPlace = 2 }
 );
-wire_enum!(SimCommandKind { Attach = 1, Detach = 2, Stop = 3 });
+wire_enum!(
+    /// `Start` lets the simulator begin ticking once every process is ready.
+    SimCommandKind { Attach = 1, Detach = 2, Stop = 3, Start = 4 }
+);
 wire_enum!(NodeState { Starting = 0, Ready = 1, Running = 2, Stopping = 3, Failed = 4 });
 wire_enum!(GridKind { Global = 0, Local = 1 });
 wire_enum!(MissionState { Starting = 0, Planning = 1, Driving = 2, Rotating = 3, Succeeded = 4, Failed = 5 });
