@@ -20,9 +20,11 @@ mod instance;
 mod port;
 mod qos;
 pub mod signals;
+mod tick;
 
 pub use bus::{Bus, HeartbeatSender};
 pub use error::BusError;
 pub use instance::Instance;
 pub use port::{Publisher, Received, Stamp, Subscriber, WaitOutcome};
 pub use qos::Qos;
+pub use tick::{NodeArgs, StageTimer, TickFollower};

@@ -1,0 +1,97 @@
+//! The tick protocol.
+//!
+//! Lockstep: the simulator publishes `RobotState` and then `Tick{k}`; every stage that
+//! acts on tick k publishes its outputs and then `TickDone{k}`; the simulator advances
+//! only when all required `TickDone{k}` are in (lidar, mapper, supervisor, and the
+//! controller on ticks flagged `STAGE_CONTROLLER`). Results therefore depend only on
+//! inputs and seeds. Realtime: the simulator ticks on the wall clock and waits for
+//! nobody; a stage that is late just acts on the newest tick it sees.
+
+use crate::port::{Publisher, Stamp, Subscriber};
+use crate::{Bus, BusError, HeartbeatSender, WaitOutcome, clock};
+use aisle_messages::{NodeKind, NodeState, StageStatus, Tick, TickDone, services};
+use std::time::Duration;
+
+/// Waits for ticks and acknowledges them, heartbeating while it waits.
+pub struct TickFollower {
+    ticks: Subscriber<Tick>,
+    done: Publisher<TickDone>,
+    heartbeat: HeartbeatSender,
+    kind: NodeKind,
+}
+
+impl TickFollower {
+    pub fn new(bus: &Bus) -> Result<Self, BusError> {
+        Ok(Self {
+            ticks: bus.subscriber(services::TICK)?,
+            done: bus.publisher(services::TICK_DONE)?,
+            heartbeat: bus.heartbeat()?,
+            kind: bus.kind(),
+        })
+    }
+
+    pub fn heartbeat(&mut self) -> &mut HeartbeatSender {
+        &mut self.heartbeat
+    }
+
+    /// Announces that this process is ready to act on ticks.
+    pub fn ready(&mut self) -> Result<(), BusError> {
+        self.heartbeat.send(NodeState::Ready, "")
+    }
+
+    /// Blocks until a tick arrives and returns the newest one (in realtime mode a slow
+    /// stage skips ticks it can no longer serve). `Err(StopRequested)` on SIGINT/SIGTERM.
+    pub fn wait_tick(&mut self) -> Result<Tick, BusError> {
+        loop {
+            let hb = &mut self.heartbeat;
+            let (outcome, sample) = self.ticks.wait_for(Duration::from_millis(500), |_| true, || {
+                let _ = hb.tick(NodeState::Running);
+            })?;
+            if outcome == WaitOutcome::Matched
+                && let Some(first) = sample
+            {
+                let mut tick = *first;
+                drop(first);
+                while let Some(newer) = self.ticks.receive()? {
+                    tick = *newer;
+                }
+                return Ok(tick);
+            }
+        }
+    }
+
+    /// Acknowledges `tick`: outputs for it are published.
+    pub fn done(&mut self, tick: &Tick, status: StageStatus, compute_ns: u64) -> Result<(), BusError> {
+        let kind = self.kind;
+        self.done.publish(Stamp::of(&tick.header), |m| {
+            m.node = kind as u32;
+            m.status = status as u32;
+            m.compute_ns = compute_ns;
+        })?;
+        self.heartbeat.tick(NodeState::Running)
+    }
+}
+
+/// Times a stage's work on the monotonic clock (node adapters only).
+pub struct StageTimer(u64);
+
+impl StageTimer {
+    pub fn start() -> Self {
+        StageTimer(clock::monotonic_ns())
+    }
+    pub fn elapsed_ns(&self) -> u64 {
+        clock::monotonic_ns().saturating_sub(self.0)
+    }
+}
+
+/// Command-line context every node receives from the supervisor.
+#[derive(Debug, Clone)]
+pub struct NodeArgs {
+    pub instance: crate::Instance,
+    pub config_dir: std::path::PathBuf,
+}
+
+impl NodeArgs {
+    /// How long a starting node waits for the supervisor's announcement.
+    pub const JOIN_TIMEOUT: Duration = Duration::from_secs(10);
+}
