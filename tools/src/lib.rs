@@ -1,1 +1,34 @@
-//! aisle-tools
+//! aisle-tools: recording, replay, profiling and pictures of aisle runs.
+//!
+//! - [`record`]: the recorder node (`run_recorder`) writing one MCAP file per run;
+//! - [`replay`]: publishes a recorded file back into a live instance;
+//! - [`reader`]: reads a recorded file (raw payloads, attachments, damage reports);
+//! - [`profile`]: per-stage and end-to-end latency and jitter from a recorded file;
+//! - [`render`]: a top-view PNG of a run.
+//!
+//! Lower layers: [`catalog`] (service -> message type), [`writer`] (the MCAP layout),
+//! [`viewer`] (Foxglove protobuf conversion), [`aligned`] (viewing bytes as messages),
+//! [`canvas`] (raster drawing and PNG). [`synthetic`] makes a deterministic fake run for
+//! tests, benchmarks and examples.
+
+pub mod aligned;
+pub mod canvas;
+pub mod catalog;
+pub mod profile;
+pub mod reader;
+pub mod record;
+pub mod render;
+pub mod replay;
+pub mod viewer;
+pub mod writer;
+
+pub use profile::{ProfileError, ProfileOptions, ProfileReport, profile, profile_with};
+pub use reader::{ChannelInfo, FileAttachment, FileMessage, ReadError, RecordFile};
+pub use record::{RecordSummary, RecorderOptions, run_recorder, run_recorder_with};
+pub use render::{RenderError, RenderOptions, RenderSummary, render, render_file};
+pub use replay::{ReplayError, ReplayOptions, ReplaySummary, replay};
+pub use writer::{Compression, RecordWriter, WriteError, WriterOptions};
+pub mod synthetic;
+
+#[cfg(test)]
+mod tests;

@@ -142,6 +142,9 @@ impl Bus {
 }
 
 /// Publishes this process's liveness, at most every `period` unless forced.
+///
+/// Keep the sender alive for as long as the process runs: a sender dropped right after
+/// `send` takes its publisher with it, and subscribers never see the sample.
 pub struct HeartbeatSender {
     port: Publisher<Heartbeat>,
     kind: NodeKind,

@@ -9,6 +9,10 @@ use std::sync::atomic::{AtomicU32, Ordering};
 
 static COUNTER: AtomicU32 = AtomicU32::new(0);
 
+/// Longest root path plus prefix with which iceoryx2 0.10 can still create its event
+/// sockets (measured: a unix socket path holds at most 107 bytes).
+pub const MAX_ROOT_AND_PREFIX: usize = 68;
+
 /// Where an instance lives. Passed to every child on its command line.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Instance {
@@ -23,8 +27,10 @@ impl Instance {
     /// a per-process counter and the monotonic clock, so concurrent launches differ.
     pub fn unique(base: &StdPath) -> Instance {
         let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-        let t = crate::clock::monotonic_ns() % 1_000_000_000;
-        let prefix = format!("aisle{}x{}x{}_", std::process::id(), n, t);
+        // Short: iceoryx2 builds socket paths from the root and the prefix (see
+        // `MAX_ROOT_AND_PREFIX`). The clock part tells apart a reused pid.
+        let t = (crate::clock::monotonic_ns() / 1000) % 0x10_0000;
+        let prefix = format!("aisle{}x{}x{:x}_", std::process::id(), n, t);
         Instance {
             root: base.join(&prefix),
             prefix,
@@ -60,6 +66,15 @@ impl Instance {
             prefix: self.prefix.clone(),
             what,
         };
+        let used = self.root.as_os_str().len() + self.prefix.len();
+        if used > MAX_ROOT_AND_PREFIX {
+            return Err(err(format!(
+                "the instance root {} is too long: iceoryx2 keeps unix-domain sockets under it, \
+                 whose paths are limited, so root and prefix together may have {MAX_ROOT_AND_PREFIX} \
+                 bytes (they have {used}); choose a shorter AISLE_RUN_DIR",
+                self.root.display()
+            )));
+        }
         let mut cfg = Config::default();
         cfg.global.prefix = FileName::new(self.prefix.as_bytes())
             .map_err(|e| err(format!("invalid prefix: {e:?}")))?;

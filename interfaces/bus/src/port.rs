@@ -164,6 +164,14 @@ impl<M: Message> Publisher<M> {
     }
 }
 
+/// The bytes of a message, exactly as they lie in shared memory (for recorders and for
+/// keeping a copy of a state message to publish again with [`Publisher::publish_bytes`]).
+pub fn message_bytes<M: Message>(m: &M) -> &[u8] {
+    // SAFETY: messages are `#[repr(C)]` plain data with explicit padding fields, so every
+    // byte of the value is initialised and may be read.
+    unsafe { std::slice::from_raw_parts(m as *const M as *const u8, std::mem::size_of::<M>()) }
+}
+
 /// A received sample: dereferences to the message, in shared memory.
 pub type Received<M> = Sample<ipc::Service, M, ()>;
 

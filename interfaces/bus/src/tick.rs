@@ -42,11 +42,23 @@ impl TickFollower {
     /// Blocks until a tick arrives and returns the newest one (in realtime mode a slow
     /// stage skips ticks it can no longer serve). `Err(StopRequested)` on SIGINT/SIGTERM.
     pub fn wait_tick(&mut self) -> Result<Tick, BusError> {
+        self.wait_tick_refreshing(|| {})
+    }
+
+    /// As [`TickFollower::wait_tick`], calling `refresh` between sleeps: a node passes
+    /// the `update_connections` of its state publishers, so that a process restarted
+    /// while the pipeline waits on it receives their history.
+    pub fn wait_tick_refreshing(&mut self, mut refresh: impl FnMut()) -> Result<Tick, BusError> {
         loop {
             let hb = &mut self.heartbeat;
-            let (outcome, sample) = self.ticks.wait_for(Duration::from_millis(500), |_| true, || {
-                let _ = hb.tick(NodeState::Running);
-            })?;
+            let (outcome, sample) = self.ticks.wait_for(
+                Duration::from_millis(50),
+                |_| true,
+                || {
+                    let _ = hb.tick(NodeState::Running);
+                    refresh();
+                },
+            )?;
             if outcome == WaitOutcome::Matched
                 && let Some(first) = sample
             {
@@ -61,9 +73,25 @@ impl TickFollower {
     }
 
     /// Acknowledges `tick`: outputs for it are published.
-    pub fn done(&mut self, tick: &Tick, status: StageStatus, compute_ns: u64) -> Result<(), BusError> {
+    pub fn done(
+        &mut self,
+        tick: &Tick,
+        status: StageStatus,
+        compute_ns: u64,
+    ) -> Result<(), BusError> {
+        self.done_for(&tick.header, status, compute_ns)
+    }
+
+    /// Acknowledges the tick a message was stamped with (stages driven by data, such
+    /// as the mapper, which acts on each point cloud rather than on the tick itself).
+    pub fn done_for(
+        &mut self,
+        header: &aisle_messages::Header,
+        status: StageStatus,
+        compute_ns: u64,
+    ) -> Result<(), BusError> {
         let kind = self.kind;
-        self.done.publish(Stamp::of(&tick.header), |m| {
+        self.done.publish(Stamp::of(header), |m| {
             m.node = kind as u32;
             m.status = status as u32;
             m.compute_ns = compute_ns;
@@ -89,6 +117,16 @@ impl StageTimer {
 pub struct NodeArgs {
     pub instance: crate::Instance,
     pub config_dir: std::path::PathBuf,
+    /// Simulated time per tick.
+    pub dt_ns: u64,
+    /// The controller acts on every n-th tick.
+    pub controller_every: u32,
+    /// Where the simulator puts the robot (x, y, heading), from the mission.
+    pub start: [f64; 3],
+    /// The lidar returns nothing (tests that prove the unseen obstacles matter).
+    pub lidar_off: bool,
+    /// This process replaces one that died: resume from the state it published.
+    pub restarted: bool,
 }
 
 impl NodeArgs {

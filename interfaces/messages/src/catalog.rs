@@ -264,13 +264,58 @@ message!(
 );
 
 message!(
-    /// The controller's band, published with history 1 so a restarted controller resumes.
-    ControllerBand = "aisle.ControllerBand.v1" size 16448 {
+    /// The controller's band and its progress along the reference, published with
+    /// history 1 so a restarted controller resumes exactly where it was (`dts` are the
+    /// band's own time steps, bit for bit; `poses[i].t` is their running sum, for viewers).
+    ControllerBand = "aisle.ControllerBand.v2" size 20552 {
         header: Header,
         goal_id: u64,
         len: u32,
-        _pad: u32,
+        /// Reference section being driven.
+        section: u32,
+        /// Arc length along the reference reached, m.
+        progress: f64,
         poses: [TimedPoseMsg; MAX_COMMANDS],
+        dts: [f64; MAX_COMMANDS],
+    }
+);
+
+crate::layout_struct!(
+    /// One entry of the simulator's command timeline: offset from its start and twist.
+    TimedTwistMsg = "aisle.TimedTwist.v1" { offset_ns: u64, v: f64, w: f64 }
+);
+
+message!(
+    /// The simulator's whole state at the start of tick `next_tick`, published with
+    /// history 1 before that tick's `RobotState`, so a restarted simulator resumes
+    /// bit for bit: every float is copied, none recomputed.
+    SimState = "aisle.SimState.v1" size 14096 {
+        header: Header,
+        next_tick: u64,
+        time_ns: u64,
+        pose: Pose2Msg,
+        twist: [f64; 2],
+        wheels: [f64; 2],
+        watchdog_stopped: u8,
+        wheels_clamped: u8,
+        _pad: [u8; 2],
+        /// Scene index of the carried body, -1 for none.
+        carried_body: i32,
+        /// The carried body's pose on the carry mount.
+        carried_offset: Pose2Msg,
+        collisions: u64,
+        min_clearance: f64,
+        /// The last `SimCommand` applied (its `command_id`).
+        last_command_id: u64,
+        /// The last trajectory applied: its sequence number and tick.
+        last_trajectory_seq: u64,
+        last_trajectory_tick: u64,
+        bodies_len: u32,
+        timeline_len: u32,
+        timeline_start_ns: u64,
+        body_poses: [Pose2Msg; MAX_BODIES],
+        in_contact: [u8; MAX_BODIES],
+        timeline: [TimedTwistMsg; MAX_COMMANDS],
     }
 );
 
@@ -355,6 +400,8 @@ pub(crate) fn layouts() -> Vec<(&'static str, usize, usize, &'static [FieldLayou
         ControllerGoal,
         Trajectory,
         ControllerBand,
+        TimedTwistMsg,
+        SimState,
         SimCommand,
         Heartbeat,
         MissionStatus,

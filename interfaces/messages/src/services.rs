@@ -7,6 +7,7 @@ pub const HEARTBEAT: &str = "aisle/heartbeat";
 pub const ROBOT_STATE: &str = "aisle/robot_state";
 pub const WORLD_TRUTH: &str = "aisle/world_truth";
 pub const SIM_COMMAND: &str = "aisle/sim_command";
+pub const SIM_STATE: &str = "aisle/sim_state";
 pub const POINT_CLOUD: &str = "aisle/lidar/points";
 pub const GLOBAL_MAP: &str = "aisle/map/global";
 pub const LOCAL_MAP: &str = "aisle/map/local";

@@ -1,1 +1,146 @@
-fn main() {}
+//! Full-scan timing: the seed pattern (31 x 1201 rays) on the shipped warehouse from the
+//! start pose and from inside the storage lane, the parry3d reference for comparison,
+//! and the scaling with 10 / 100 / 1000 random boxes (seeded).
+
+use aisle_config::scene::{Body, BoxPart, Scene};
+use aisle_geometry::Pose2;
+use aisle_lidar::{LidarConfig, ParryReference, Raycaster, SensorPose};
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use std::hint::black_box;
+use std::path::Path;
+
+fn warehouse() -> Scene {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/warehouse.toml");
+    Scene::load(&p).expect("shipped warehouse")
+}
+
+fn sensor_at(x: f64, y: f64, yaw: f64) -> SensorPose {
+    let mount = SensorPose::from_xyz_rpy([0.25, 0.1, 0.2], [0.0; 3]);
+    SensorPose::on_robot(&Pose2::new(x, y, yaw), &mount)
+}
+
+/// `n` boxes of 0.2..1.5 m sides and 0.2..3 m height, any yaw, in the 20 x 30 m map,
+/// from a fixed-seed xorshift stream.
+fn random_scene(n: usize, seed: u64) -> Scene {
+    let mut s = seed;
+    let mut next = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let bodies = (0..n)
+        .map(|i| {
+            let size = [0.2 + 1.3 * next(), 0.2 + 1.3 * next(), 0.2 + 2.8 * next()];
+            let (mut x, mut y) = (0.0f64, 0.0f64);
+            // Keep the sensor (at the origin) outside every box.
+            while x.abs() < 1.2 && y.abs() < 1.2 {
+                x = -5.0 + 20.0 * next();
+                y = -10.0 + 30.0 * next();
+            }
+            Body {
+                name: format!("b{i}"),
+                kind: "box".into(),
+                is_static: false,
+                pose: Pose2::new(x, y, std::f64::consts::PI * next()),
+                parts: vec![BoxPart {
+                    center: [0.0, 0.0, 0.5 * size[2]],
+                    size,
+                }],
+            }
+        })
+        .collect();
+    Scene { bodies }
+}
+
+fn scans(c: &mut Criterion) {
+    let scene = warehouse();
+    let noisy = LidarConfig::default();
+    let mut quiet = LidarConfig::default();
+    quiet.noise.enabled = false;
+    let poses = [
+        ("start (0,0,0)", sensor_at(0.0, 0.0, 0.0)),
+        (
+            "lane (2,11,pi/2)",
+            sensor_at(2.0, 11.0, std::f64::consts::FRAC_PI_2),
+        ),
+    ];
+    let mut g = c.benchmark_group("warehouse");
+    g.throughput(Throughput::Elements(37_231));
+    for (name, pose) in &poses {
+        for (label, cfg) in [("fast+noise", &noisy), ("fast", &quiet)] {
+            let mut r = Raycaster::new(cfg, &scene).expect("raycaster");
+            let mut out = vec![[0.0f32; 3]; r.len()];
+            let mut k = 0u64;
+            g.bench_function(format!("{label} {name}"), |b| {
+                b.iter(|| {
+                    k += 1;
+                    r.scan(black_box(pose), k, &mut out).expect("scan");
+                    black_box(&out);
+                })
+            });
+        }
+        let reference = ParryReference::new(&quiet, &scene).expect("reference");
+        let mut out = vec![[0.0f32; 3]; reference.len()];
+        g.bench_function(format!("parry reference {name}"), |b| {
+            b.iter(|| {
+                reference.scan(black_box(pose), &mut out).expect("scan");
+                black_box(&out);
+            })
+        });
+    }
+    // Carrying rack2b out of the lane: its legs and deck surround the sensor, and the
+    // node moves it before every scan.
+    let mut r = Raycaster::new(&noisy, &scene).expect("raycaster");
+    let rack = r.body_index("rack2b").expect("rack2b in the scene");
+    let mut out = vec![[0.0f32; 3]; r.len()];
+    let robot = Pose2::new(2.0, 11.0, -std::f64::consts::FRAC_PI_2);
+    let mut k = 0u64;
+    g.bench_function("fast+noise carrying rack2b (2,11,-pi/2)", |b| {
+        b.iter(|| {
+            k += 1;
+            r.set_body_pose(rack, robot).expect("rack pose");
+            r.scan_robot(black_box(&robot), k, &mut out).expect("scan");
+            black_box(&out);
+        })
+    });
+    let tilted = SensorPose::on_robot(
+        &Pose2::new(2.0, 11.0, std::f64::consts::FRAC_PI_2),
+        &SensorPose::from_xyz_rpy([0.25, 0.1, 0.2], [0.05, -0.1, 0.0]),
+    );
+    let mut r = Raycaster::new(&quiet, &scene).expect("raycaster");
+    let mut out = vec![[0.0f32; 3]; r.len()];
+    g.bench_function("general path (tilted) lane", |b| {
+        b.iter(|| {
+            r.scan(black_box(&tilted), 0, &mut out).expect("scan");
+            black_box(&out);
+        })
+    });
+    g.finish();
+
+    let mut g = c.benchmark_group("scaling");
+    g.throughput(Throughput::Elements(37_231));
+    let origin = SensorPose::planar(0.0, 0.0, 0.2, 0.0);
+    for n in [10, 100, 1000] {
+        let scene = random_scene(n, 0x5EED_0000 + n as u64);
+        let mut r = Raycaster::new(&quiet, &scene).expect("raycaster");
+        let mut out = vec![[0.0f32; 3]; r.len()];
+        g.bench_function(format!("fast {n} boxes"), |b| {
+            b.iter(|| {
+                r.scan(black_box(&origin), 0, &mut out).expect("scan");
+                black_box(&out);
+            })
+        });
+        let reference = ParryReference::new(&quiet, &scene).expect("reference");
+        g.bench_function(format!("parry reference {n} boxes"), |b| {
+            b.iter(|| {
+                reference.scan(black_box(&origin), &mut out).expect("scan");
+                black_box(&out);
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, scans);
+criterion_main!(benches);

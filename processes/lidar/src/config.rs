@@ -166,7 +166,11 @@ impl LidarConfig {
             self.elevation_min_deg,
             self.elevation_max_deg,
             self.elevation_step_deg,
-            ["elevation_min_deg", "elevation_max_deg", "elevation_step_deg"],
+            [
+                "elevation_min_deg",
+                "elevation_max_deg",
+                "elevation_step_deg",
+            ],
         )
     }
 
@@ -279,7 +283,10 @@ mod tests {
         let e = LidarConfig::parse(Path::new("l.toml"), "azimuth_step_deg = 0.7\n")
             .unwrap_err()
             .to_string();
-        assert!(e.contains("`azimuth_step_deg`") && e.contains("divide"), "{e}");
+        assert!(
+            e.contains("`azimuth_step_deg`") && e.contains("divide"),
+            "{e}"
+        );
         let e = LidarConfig::parse(Path::new("l.toml"), "elevation_step_deg = 0.0\n")
             .unwrap_err()
             .to_string();
@@ -290,7 +297,10 @@ mod tests {
     fn other_bad_values_are_named() {
         let cases = [
             ("elevation_max_deg = 95.0", "elevation_max_deg"),
-            ("azimuth_min_deg = -200.0\nazimuth_max_deg = 200.0", "azimuth_max_deg"),
+            (
+                "azimuth_min_deg = -200.0\nazimuth_max_deg = 200.0",
+                "azimuth_max_deg",
+            ),
             ("rate_hz = 0.0", "rate_hz"),
             ("[noise]\nsigma = -0.1", "noise.sigma"),
             ("[mount]\nlink = \"\"", "mount.link"),

@@ -1,1 +1,21 @@
-//! aisle-supervisor
+//! aisle-supervisor: the `aisle` command.
+//!
+//! - [`cli`]: argument parsing and dispatch (`run`, `check`, `node`, `map export`).
+//! - [`launch`]: starting, watching and stopping the node processes.
+//! - [`session`]: one run of the process group: readiness, the tick loop, shutdown.
+//! - [`mission`]: the mission state machine (pure; no bus, no clock).
+//! - [`budgets`]: latency budgets and the per-stage statistics.
+//! - [`report`]: the run's metrics and their JSON form.
+//! - [`restart`]: the restart policy and the count of restarts.
+//! - [`check`]: validation of every file in `config/`.
+//! - [`nodes`]: `aisle node <name>`, which runs one process's node adapter.
+
+pub mod budgets;
+pub mod check;
+pub mod cli;
+pub mod launch;
+pub mod mission;
+pub mod nodes;
+pub mod report;
+pub mod restart;
+pub mod session;

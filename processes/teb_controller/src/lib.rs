@@ -1,1 +1,44 @@
-//! aisle-teb-controller
+//! aisle-teb-controller: a timed-elastic-band local controller for a differential-drive
+//! robot, solved as a sequence of convex subproblems (clarabel).
+//!
+//! The band's poses and time steps are optimised for minimum time, closeness to the
+//! reference path and smoothness, with velocity limits as exact cones and kinematics,
+//! accelerations, drive direction and obstacle clearance linearised around the previous
+//! band. Outputs follow MATLAB controllerTEB: a (t, v, w) timeline, predicted poses,
+//! reached-goal and exit flag. Knows nothing of the bus (the `node` module adapts it).
+//!
+//! ```text
+//! let mut teb = TebController::new(TebConfig::load(Path::new("config/teb.toml"))?)?;
+//! teb.set_goal(&Goal { reference, footprint, margin: 0.1, mode: Mode::Follow })?;
+//! // every 0.5 s of sim time:
+//! let out = teb.step(pose, (v, w), t_now, &local_map)?;   // &StepOutput, reused buffers
+//! let (v, w) = out.command_at(t);                          // zero-order hold, sim time
+//! let snap = teb.snapshot();                               // publish (history 1)
+//! // after a restart: teb.set_goal(&same_goal)?; teb.restore(&snap)?;
+//! ```
+
+mod band;
+mod clearance;
+mod config;
+mod controller;
+mod detour;
+mod error;
+mod feasibility;
+mod goal;
+pub mod node;
+mod output;
+mod qp;
+mod reference;
+mod scp;
+
+#[cfg(test)]
+mod tests;
+
+pub use band::Band;
+pub use config::{
+    BandConfig, HomotopyConfig, LimitsConfig, SolverConfig, TebConfig, WeightsConfig,
+};
+pub use controller::{Snapshot, TebController};
+pub use error::TebError;
+pub use goal::{Goal, Mode};
+pub use output::{Command, ExitFlag, MAX_COMMANDS, StepOutput, TimedPose, command_at};

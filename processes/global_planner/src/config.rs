@@ -1,0 +1,219 @@
+//! Planner configuration (`config/planner.toml`): serde with unknown keys refused,
+//! defaults from the seed and MATLAB's `plannerHybridAStar`, and a `validate()` whose
+//! error names the offending key. Knows nothing of files; the node loads the TOML.
+
+use serde::{Deserialize, Serialize};
+
+/// A configuration value that parsed but makes no sense.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("planner config key `{key}`: {reason}")]
+pub struct ConfigInvalid {
+    pub key: &'static str,
+    pub reason: String,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PlannerConfig {
+    /// Minimum turning radius of the arcs (m). 1.0 m: at the controller's 1 rad/s limit
+    /// the robot can follow it at 1 m/s, half its top speed, so the reference path is
+    /// trackable without in-place corrections; tighter spots use rotation primitives.
+    pub min_turning_radius: f64,
+    /// Heading bins of the search's closed set (MATLAB and Nav2 use 72: 5 degrees).
+    pub heading_bins: u32,
+    /// Minimum length of one motion primitive (m); arcs are rounded up to a whole number
+    /// of heading bins, and never shorter than one search cell diagonal.
+    pub primitive_length: f64,
+    /// Cell size of the search's closed set (m); independent of the map resolution.
+    pub search_resolution: f64,
+    /// Cell size of the 2D obstacle heuristic (m), rounded to whole map cells.
+    pub heuristic_resolution: f64,
+    /// Cost per metre driven forward (MATLAB default 1).
+    pub forward_cost: f64,
+    /// Cost per metre driven in reverse (MATLAB default 3).
+    pub reverse_cost: f64,
+    /// Added at every change between forward and reverse driving (MATLAB default 0; we
+    /// charge 1 m so that cusps appear only when they save more than a metre).
+    pub direction_switch_cost: f64,
+    /// Extra fraction of the length charged for turning arcs (discourages weaving).
+    pub steering_penalty: f64,
+    /// Whether turning on the spot is allowed (a differential-drive robot can).
+    pub allow_rotation: bool,
+    /// Cost per radian turned on the spot.
+    pub rotation_cost: f64,
+    /// Heading bins turned by one rotation primitive.
+    pub rotation_step_bins: u32,
+    /// Try an analytic (Reeds-Shepp or rotate-drive-rotate) connection to the goal every
+    /// this many expansions (MATLAB default 5), and on the first one.
+    pub analytic_expansion_interval: u32,
+    /// Far from the goal, space analytic attempts by at least this many expansions per
+    /// metre of remaining (heuristic) cost; 0 keeps the fixed interval. Nav2 uses about
+    /// 5.7 per metre (one per 3.5 cells of 5 cm).
+    pub analytic_interval_per_metre: f64,
+    /// How many of the cheapest analytic candidates to collision-check per attempt.
+    pub analytic_candidates: u32,
+    /// Spacing of the output path poses (m); MATLAB's ValidationDistance in the seed.
+    pub validation_distance: f64,
+    /// Reach of one exact collision check (m): checks are spaced so that no pose between
+    /// them goes unchecked, at the price of this much extra clearance near obstacles.
+    pub sweep_cover: f64,
+    /// Smooth the path (then re-validate; a piece whose smoothing breaks validity keeps
+    /// its original shape).
+    pub smoothing: bool,
+    pub smoothing_weight_data: f64,
+    pub smoothing_weight_smooth: f64,
+    pub smoothing_iterations: u32,
+    /// How often (in expansions) the optional stop callback is asked.
+    pub stop_check_interval: u32,
+}
+
+impl Default for PlannerConfig {
+    fn default() -> Self {
+        Self {
+            min_turning_radius: 1.0,
+            heading_bins: 72,
+            primitive_length: 0.25,
+            search_resolution: 0.1,
+            heuristic_resolution: 0.1,
+            forward_cost: 1.0,
+            reverse_cost: 3.0,
+            direction_switch_cost: 1.0,
+            steering_penalty: 0.05,
+            allow_rotation: true,
+            rotation_cost: 1.5,
+            rotation_step_bins: 3,
+            analytic_expansion_interval: 5,
+            analytic_interval_per_metre: 2.0,
+            analytic_candidates: 3,
+            validation_distance: 0.1,
+            sweep_cover: 0.03,
+            smoothing: true,
+            smoothing_weight_data: 0.2,
+            smoothing_weight_smooth: 0.3,
+            smoothing_iterations: 200,
+            stop_check_interval: 256,
+        }
+    }
+}
+
+fn positive(key: &'static str, v: f64) -> Result<(), ConfigInvalid> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(ConfigInvalid {
+            key,
+            reason: format!("must be a positive number, got {v}"),
+        })
+    }
+}
+
+fn at_least(key: &'static str, v: f64, min: f64) -> Result<(), ConfigInvalid> {
+    if v.is_finite() && v >= min {
+        Ok(())
+    } else {
+        Err(ConfigInvalid {
+            key,
+            reason: format!("must be a number >= {min}, got {v}"),
+        })
+    }
+}
+
+fn int_range(key: &'static str, v: u32, lo: u32, hi: u32) -> Result<(), ConfigInvalid> {
+    if (lo..=hi).contains(&v) {
+        Ok(())
+    } else {
+        Err(ConfigInvalid {
+            key,
+            reason: format!("must be in {lo}..={hi}, got {v}"),
+        })
+    }
+}
+
+impl PlannerConfig {
+    pub fn validate(&self) -> Result<(), ConfigInvalid> {
+        positive("min_turning_radius", self.min_turning_radius)?;
+        int_range("heading_bins", self.heading_bins, 8, 720)?;
+        positive("primitive_length", self.primitive_length)?;
+        positive("search_resolution", self.search_resolution)?;
+        positive("heuristic_resolution", self.heuristic_resolution)?;
+        at_least("forward_cost", self.forward_cost, 1.0)?;
+        at_least("reverse_cost", self.reverse_cost, 1.0)?;
+        at_least("direction_switch_cost", self.direction_switch_cost, 0.0)?;
+        at_least("steering_penalty", self.steering_penalty, 0.0)?;
+        positive("rotation_cost", self.rotation_cost)?;
+        int_range(
+            "rotation_step_bins",
+            self.rotation_step_bins,
+            1,
+            self.heading_bins / 2,
+        )?;
+        int_range(
+            "analytic_expansion_interval",
+            self.analytic_expansion_interval,
+            1,
+            1_000_000,
+        )?;
+        at_least(
+            "analytic_interval_per_metre",
+            self.analytic_interval_per_metre,
+            0.0,
+        )?;
+        int_range("analytic_candidates", self.analytic_candidates, 1, 48)?;
+        positive("validation_distance", self.validation_distance)?;
+        positive("sweep_cover", self.sweep_cover)?;
+        if self.sweep_cover > 0.5 * self.validation_distance {
+            return Err(ConfigInvalid {
+                key: "sweep_cover",
+                reason: "must not exceed half of validation_distance".into(),
+            });
+        }
+        let w = self.smoothing_weight_data;
+        let s = self.smoothing_weight_smooth;
+        at_least("smoothing_weight_data", w, 0.0)?;
+        at_least("smoothing_weight_smooth", s, 0.0)?;
+        if w + 2.0 * s > 1.0 {
+            return Err(ConfigInvalid {
+                key: "smoothing_weight_smooth",
+                reason: "weight_data + 2 * weight_smooth must be <= 1 for a stable update".into(),
+            });
+        }
+        int_range(
+            "smoothing_iterations",
+            self.smoothing_iterations,
+            0,
+            100_000,
+        )?;
+        int_range("stop_check_interval", self.stop_check_interval, 1, u32::MAX)?;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::Path;
+
+    #[test]
+    fn default_is_valid_and_matches_the_shipped_file() {
+        PlannerConfig::default().validate().unwrap();
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/planner.toml");
+        let text = std::fs::read_to_string(&path).unwrap();
+        let cfg: PlannerConfig = aisle_config::parse_toml(&path, &text).unwrap();
+        assert_eq!(cfg, PlannerConfig::default());
+    }
+
+    #[test]
+    fn bad_values_name_their_key() {
+        let mut c = PlannerConfig {
+            reverse_cost: 0.5,
+            ..Default::default()
+        };
+        assert_eq!(c.validate().unwrap_err().key, "reverse_cost");
+        c.reverse_cost = 3.0;
+        c.min_turning_radius = f64::NAN;
+        assert_eq!(c.validate().unwrap_err().key, "min_turning_radius");
+        let typo: Result<PlannerConfig, _> =
+            aisle_config::parse_toml(Path::new("x.toml"), "heading_binz = 3\n");
+        assert!(typo.is_err());
+    }
+}

@@ -1,0 +1,68 @@
+//! Typed planning failures and the statistics reported with every outcome.
+
+/// Counters of one planning request, reported on success and on failure.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PlanStats {
+    /// Nodes taken from the open list and expanded.
+    pub expansions: u32,
+    /// Search nodes created (the start included).
+    pub nodes: u32,
+    /// Analytic connections to the goal that were collision-checked.
+    pub analytic_checks: u32,
+    /// Pose probes made by the collision checker.
+    pub collision_probes: u64,
+    /// Cells settled by the 2D heuristic's grid search.
+    pub heuristic_cells: u32,
+    /// Whether this request had to rebuild the map's distance tables.
+    pub map_rebuilt: bool,
+    /// Length of the returned path in metres (0 on failure).
+    pub path_length: f64,
+    /// Search cost of the returned path (0 on failure).
+    pub path_cost: f64,
+    /// Whether smoothing changed the path.
+    pub smoothed: bool,
+}
+
+/// What was wrong with a request.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum InvalidInput {
+    #[error("start pose is not finite")]
+    StartNotFinite,
+    #[error("goal pose is not finite")]
+    GoalNotFinite,
+    #[error("footprint length and width must be positive and finite")]
+    Footprint,
+    #[error("margin must be finite and not negative")]
+    Margin,
+    #[error("the map's resolution, origin or cell count is inconsistent")]
+    Map,
+    #[error("the expansion budget is zero")]
+    ZeroBudget,
+}
+
+/// Why no path was returned.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum PlanErrorKind {
+    #[error("invalid request: {0}")]
+    InvalidInput(InvalidInput),
+    #[error("the start pose is in collision")]
+    StartOccupied,
+    #[error("the goal pose is in collision")]
+    GoalOccupied,
+    #[error("no collision-free path exists")]
+    NoPath,
+    #[error("the expansion budget ran out")]
+    BudgetExhausted,
+    #[error("stopped by the caller (deadline or cancel)")]
+    Stopped,
+    #[error("internal error: the found path failed its final validation")]
+    ValidationFailed,
+}
+
+/// A failed request: the reason and what the search did before giving up.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[error("{kind} (after {} expansions)", stats.expansions)]
+pub struct PlanError {
+    pub kind: PlanErrorKind,
+    pub stats: PlanStats,
+}

@@ -1,0 +1,292 @@
+//! `MapConfig`: the global map's geometry, the local window and the obstacle layer's
+//! parameters, read from `config/mapper.toml`.
+//!
+//! Defaults are the seed's numbers (MATLAB `binaryOccupancyMap(scenario,
+//! MapHeightLimits=[0 5], GridOriginInLocal=[-5 -10], MapSize=[20 30])` at its default
+//! 10 cells/m, a 1 m boundary band, a 15 m local map, a 12 m lidar). `validate` names the
+//! offending key. Knows nothing of the scene, the lidar's scan pattern or the bus.
+
+use aisle_config::ConfigError;
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// Cells per metre above this would make a 20 x 30 m map exceed the 1024 x 1024 cells a
+/// grid message holds; far finer than a lidar at 12 m can resolve anyway.
+const MAX_CELLS_PER_METRE: f64 = 50.0;
+
+/// Largest grid side, in cells, the library accepts. Equal to the capacity of the grid
+/// message (1024 x 1024 cells); kept here so the algorithm does not depend on the
+/// message crate. The node adapter asserts the two agree.
+pub const MAX_GRID_SIDE: usize = 1024;
+
+/// The rolling local map handed to the controller every tick.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LocalMapConfig {
+    /// Side of the square window centred on the robot, metres.
+    pub size: f64,
+}
+
+impl Default for LocalMapConfig {
+    fn default() -> Self {
+        Self { size: 15.0 }
+    }
+}
+
+/// The lidar obstacle layer.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ObstacleConfig {
+    /// Points with a world height in `[lo, hi]` metres are obstacles. 0.05 m clears the
+    /// floor and its range noise; 1.2 m is the carried rack's load (boxes up to 1.0 m)
+    /// plus a margin: nothing higher can touch the robot or what it carries.
+    pub height_band: [f64; 2],
+    /// Range of the lidar, metres: a ray without return clears up to here.
+    pub max_range: f64,
+    /// Ignored rectangles (robot, carried rack, rack being approached) grow by this on
+    /// every side, metres, so range noise on their own edges is not taken for obstacles.
+    pub ignore_margin: f64,
+}
+
+impl Default for ObstacleConfig {
+    fn default() -> Self {
+        Self {
+            height_band: [0.05, 1.2],
+            max_range: 12.0,
+            ignore_margin: 0.05,
+        }
+    }
+}
+
+/// Everything in `config/mapper.toml`.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MapConfig {
+    /// Grid resolution in cells per metre (MATLAB's convention; the grid stores its
+    /// inverse, metres per cell).
+    pub cells_per_metre: f64,
+    /// World coordinates of the map's lower-left corner, metres.
+    pub origin: [f64; 2],
+    /// Extent of the map along x and y, metres.
+    pub size: [f64; 2],
+    /// Only box parts whose vertical extent meets `[lo, hi]` (metres above the floor)
+    /// are rasterised.
+    pub height_limits: [f64; 2],
+    /// Width of the occupied band along the map edge, metres.
+    pub boundary_band: f64,
+    /// A ROS map_server YAML to use as the static map instead of the scene. A relative
+    /// path is taken from the directory of `mapper.toml` by [`MapConfig::load`].
+    pub ros_map: Option<PathBuf>,
+    pub local: LocalMapConfig,
+    pub obstacles: ObstacleConfig,
+}
+
+impl Default for MapConfig {
+    fn default() -> Self {
+        Self {
+            cells_per_metre: 10.0,
+            origin: [-5.0, -10.0],
+            size: [20.0, 30.0],
+            height_limits: [0.0, 5.0],
+            boundary_band: 1.0,
+            ros_map: None,
+            local: LocalMapConfig::default(),
+            obstacles: ObstacleConfig::default(),
+        }
+    }
+}
+
+/// A value that parsed but cannot be used; `key` is the dotted TOML key.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("key `{key}`: {reason}")]
+pub struct InvalidConfig {
+    pub key: &'static str,
+    pub reason: String,
+}
+
+fn invalid(key: &'static str, reason: impl Into<String>) -> InvalidConfig {
+    InvalidConfig {
+        key,
+        reason: reason.into(),
+    }
+}
+
+fn positive(key: &'static str, v: f64) -> Result<(), InvalidConfig> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(invalid(
+            key,
+            format!("must be positive and finite, got {v}"),
+        ))
+    }
+}
+
+fn interval(key: &'static str, v: [f64; 2]) -> Result<(), InvalidConfig> {
+    if v.iter().all(|x| x.is_finite()) && v[0] < v[1] {
+        Ok(())
+    } else {
+        Err(invalid(
+            key,
+            format!("must be finite [low, high] with low < high, got {v:?}"),
+        ))
+    }
+}
+
+/// Whether `metres * cells_per_metre` is a whole number of cells (within rounding).
+fn whole_cells(metres: f64, cells_per_metre: f64) -> bool {
+    let n = metres * cells_per_metre;
+    (n - n.round()).abs() < 1e-6
+}
+
+impl MapConfig {
+    /// Metres per cell.
+    pub fn resolution(&self) -> f64 {
+        1.0 / self.cells_per_metre
+    }
+
+    pub fn validate(&self) -> Result<(), InvalidConfig> {
+        positive("cells_per_metre", self.cells_per_metre)?;
+        if self.cells_per_metre > MAX_CELLS_PER_METRE {
+            return Err(invalid(
+                "cells_per_metre",
+                format!(
+                    "{} is finer than the supported {MAX_CELLS_PER_METRE}",
+                    self.cells_per_metre
+                ),
+            ));
+        }
+        if !self.origin.iter().all(|v| v.is_finite()) {
+            return Err(invalid("origin", "not finite"));
+        }
+        for v in self.size {
+            positive("size", v)?;
+            if !whole_cells(v, self.cells_per_metre) {
+                return Err(invalid(
+                    "size",
+                    format!(
+                        "{v} m is not a whole number of cells at {} cells/m",
+                        self.cells_per_metre
+                    ),
+                ));
+            }
+            if (v * self.cells_per_metre).round() > MAX_GRID_SIDE as f64 {
+                return Err(invalid(
+                    "size",
+                    format!(
+                        "{v} m is more than {} cells, the largest grid a message holds",
+                        MAX_GRID_SIDE
+                    ),
+                ));
+            }
+        }
+        interval("height_limits", self.height_limits)?;
+        if !(self.boundary_band.is_finite() && self.boundary_band >= 0.0) {
+            return Err(invalid(
+                "boundary_band",
+                format!("must be >= 0, got {}", self.boundary_band),
+            ));
+        }
+        if 2.0 * self.boundary_band >= self.size[0].min(self.size[1]) {
+            return Err(invalid(
+                "boundary_band",
+                "the band would cover the whole map",
+            ));
+        }
+        positive("local.size", self.local.size)?;
+        if (self.local.size * self.cells_per_metre).round() > MAX_GRID_SIDE as f64 {
+            return Err(invalid(
+                "local.size",
+                "more cells than the largest grid a message holds",
+            ));
+        }
+        interval("obstacles.height_band", self.obstacles.height_band)?;
+        positive("obstacles.max_range", self.obstacles.max_range)?;
+        if !(self.obstacles.ignore_margin.is_finite() && self.obstacles.ignore_margin >= 0.0) {
+            return Err(invalid(
+                "obstacles.ignore_margin",
+                format!("must be >= 0, got {}", self.obstacles.ignore_margin),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Reads, validates and resolves `ros_map` against the file's directory.
+    pub fn load(path: &Path) -> Result<MapConfig, ConfigError> {
+        let (mut cfg, text) = aisle_config::load_toml::<MapConfig>(path)?;
+        cfg.validate()
+            .map_err(|e| ConfigError::invalid(path, &text, e.key, e.reason))?;
+        if let Some(p) = &cfg.ros_map
+            && p.is_relative()
+        {
+            let dir = path.parent().unwrap_or_else(|| Path::new("."));
+            cfg.ros_map = Some(dir.join(p));
+        }
+        Ok(cfg)
+    }
+
+    /// Cells of the local map along each side.
+    pub fn local_cells(&self) -> usize {
+        (self.local.size * self.cells_per_metre).round().max(1.0) as usize
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_the_seed_and_valid() {
+        let c = MapConfig::default();
+        c.validate().unwrap();
+        assert_eq!(c.origin, [-5.0, -10.0]);
+        assert_eq!(c.size, [20.0, 30.0]);
+        assert_eq!(c.height_limits, [0.0, 5.0]);
+        assert_eq!(c.local_cells(), 150);
+        assert!((c.resolution() - 0.1).abs() < 1e-15);
+    }
+
+    #[test]
+    fn shipped_file_equals_the_defaults() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/mapper.toml");
+        let c = MapConfig::load(&path).unwrap();
+        assert_eq!(c, MapConfig::default());
+    }
+
+    #[test]
+    fn bad_values_name_the_key_and_line() {
+        let dir = std::env::temp_dir().join(format!("aisle-mapper-cfg-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("mapper.toml");
+        std::fs::write(
+            &path,
+            "cells_per_metre = 10.0\n[obstacles]\nheight_band = [1.2, 0.05]\n",
+        )
+        .unwrap();
+        let e = MapConfig::load(&path).unwrap_err().to_string();
+        assert!(e.contains("mapper.toml:3:"), "{e}");
+        assert!(e.contains("obstacles.height_band"), "{e}");
+        std::fs::write(&path, "cells_per_metre = 10.25\n").unwrap();
+        let e = MapConfig::load(&path).unwrap_err().to_string();
+        assert!(e.contains("key `size`"), "{e}");
+        std::fs::write(&path, "cell_per_metre = 10.0\n").unwrap();
+        let e = MapConfig::load(&path).unwrap_err().to_string();
+        assert!(e.contains("mapper.toml:1:"), "{e}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn twenty_cells_per_metre_is_supported() {
+        let c = MapConfig {
+            cells_per_metre: 20.0,
+            ..MapConfig::default()
+        };
+        c.validate().unwrap();
+        assert_eq!(c.local_cells(), 300);
+        let bad = MapConfig {
+            boundary_band: f64::NAN,
+            ..MapConfig::default()
+        };
+        assert_eq!(bad.validate().unwrap_err().key, "boundary_band");
+    }
+}

@@ -1,0 +1,293 @@
+//! The map_server YAML: a flat `key: value` file, parsed by hand (no YAML crate is in
+//! the workspace and the format needs none).
+//!
+//! Keys: `image`, `resolution`, `origin: [x, y, yaw]` (required); `negate` (0),
+//! `occupied_thresh` (0.65), `free_thresh` (0.196), `mode` (trinary | scale | raw,
+//! default trinary). Unknown or repeated keys, nested YAML and a non-zero yaw (the grid
+//! is axis-aligned) are errors naming the file, the line and the key. Knows nothing of
+//! the image.
+
+use crate::error::MapError;
+use std::path::{Path, PathBuf};
+
+/// How pixel values become occupancy (map_server's `mode`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MapMode {
+    Trinary,
+    Scale,
+    Raw,
+}
+
+impl MapMode {
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            MapMode::Trinary => "trinary",
+            MapMode::Scale => "scale",
+            MapMode::Raw => "raw",
+        }
+    }
+}
+
+/// The content of a map YAML.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MapYaml {
+    /// The image path as written (relative paths are relative to the YAML's directory).
+    pub image: PathBuf,
+    /// Metres per pixel.
+    pub resolution: f64,
+    /// Pose of the lower-left corner of the lower-left pixel: x, y, yaw.
+    pub origin: [f64; 3],
+    pub negate: bool,
+    pub occupied_thresh: f64,
+    pub free_thresh: f64,
+    pub mode: MapMode,
+}
+
+/// ROS 1 map_server's default thresholds.
+pub const DEFAULT_OCCUPIED_THRESH: f64 = 0.65;
+pub const DEFAULT_FREE_THRESH: f64 = 0.196;
+
+const KEYS: [&str; 7] = [
+    "image",
+    "resolution",
+    "origin",
+    "negate",
+    "occupied_thresh",
+    "free_thresh",
+    "mode",
+];
+
+/// Removes a trailing ` # comment` and surrounding quotes; errors on an unclosed quote.
+fn scalar(raw: &str) -> Result<&str, String> {
+    let raw = raw.trim();
+    if let Some(q) = raw.chars().next().filter(|c| *c == '"' || *c == '\'') {
+        let rest = &raw[1..];
+        let end = rest.find(q).ok_or_else(|| format!("unclosed quote {q}"))?;
+        let after = rest[end + 1..].trim();
+        if !(after.is_empty() || after.starts_with('#')) {
+            return Err(format!("unexpected text after the quoted value: `{after}`"));
+        }
+        return Ok(&rest[..end]);
+    }
+    let v = match raw.find(" #").or_else(|| raw.find("\t#")) {
+        Some(i) => &raw[..i],
+        None => raw,
+    };
+    Ok(v.trim())
+}
+
+fn number(v: &str) -> Result<f64, String> {
+    match v.parse::<f64>() {
+        Ok(x) if x.is_finite() => Ok(x),
+        _ => Err(format!("`{v}` is not a finite number")),
+    }
+}
+
+fn fraction(v: &str) -> Result<f64, String> {
+    let x = number(v)?;
+    if (0.0..=1.0).contains(&x) {
+        Ok(x)
+    } else {
+        Err(format!("{x} is not within [0, 1]"))
+    }
+}
+
+pub fn parse_map_yaml(file: &Path, text: &str) -> Result<MapYaml, MapError> {
+    let err = |line: Option<usize>, key: Option<&str>, reason: String| {
+        MapError::ros(file, line, key, reason)
+    };
+    let mut image = None;
+    let mut resolution = None;
+    let mut origin = None;
+    let mut negate = (false, 0);
+    let mut occupied = (DEFAULT_OCCUPIED_THRESH, 0);
+    let mut free = (DEFAULT_FREE_THRESH, 0);
+    let mut mode = MapMode::Trinary;
+    let mut seen: [usize; KEYS.len()] = [0; KEYS.len()];
+    for (i, line) in text.lines().enumerate() {
+        let n = i + 1;
+        let t = line.trim();
+        if t.is_empty() || t.starts_with('#') || t == "---" || t == "..." {
+            continue;
+        }
+        if line.starts_with(char::is_whitespace) {
+            return Err(err(
+                Some(n),
+                None,
+                "nested YAML is not supported: the map file is flat `key: value` lines".into(),
+            ));
+        }
+        let Some((key, raw)) = t.split_once(':') else {
+            return Err(err(
+                Some(n),
+                None,
+                format!("expected `key: value`, got `{t}`"),
+            ));
+        };
+        let key = key.trim();
+        let Some(k) = KEYS.iter().position(|k| *k == key) else {
+            return Err(err(
+                Some(n),
+                Some(key),
+                format!("unknown key (expected one of {})", KEYS.join(", ")),
+            ));
+        };
+        if seen[k] != 0 {
+            return Err(err(
+                Some(n),
+                Some(key),
+                format!("repeated (first on line {})", seen[k]),
+            ));
+        }
+        seen[k] = n;
+        let bad = |reason: String| err(Some(n), Some(key), reason);
+        let v = scalar(raw).map_err(bad)?;
+        match key {
+            "image" => {
+                if v.is_empty() {
+                    return Err(bad("empty image path".into()));
+                }
+                image = Some(PathBuf::from(v));
+            }
+            "resolution" => {
+                let r = number(v).map_err(bad)?;
+                if r <= 0.0 {
+                    return Err(bad(format!("must be positive, got {r}")));
+                }
+                resolution = Some(r);
+            }
+            "origin" => {
+                let inner = v
+                    .strip_prefix('[')
+                    .and_then(|s| s.strip_suffix(']'))
+                    .ok_or_else(|| bad(format!("expected `[x, y, yaw]`, got `{v}`")))?;
+                let parts: Vec<&str> = inner.split(',').map(str::trim).collect();
+                if parts.len() != 3 {
+                    return Err(bad(format!("expected 3 numbers, got {}", parts.len())));
+                }
+                let mut o = [0.0; 3];
+                for (slot, p) in o.iter_mut().zip(&parts) {
+                    *slot = number(p).map_err(bad)?;
+                }
+                if o[2].abs() > 1e-9 {
+                    return Err(bad(format!(
+                        "yaw {} is not supported: grids are axis-aligned",
+                        o[2]
+                    )));
+                }
+                origin = Some(o);
+            }
+            "negate" => {
+                negate.0 = match v {
+                    "0" | "false" | "False" => false,
+                    "1" | "true" | "True" => true,
+                    _ => return Err(bad(format!("expected 0 or 1, got `{v}`"))),
+                };
+                negate.1 = n;
+            }
+            "occupied_thresh" => occupied = (fraction(v).map_err(bad)?, n),
+            "free_thresh" => free = (fraction(v).map_err(bad)?, n),
+            "mode" => {
+                mode = match v {
+                    "trinary" => MapMode::Trinary,
+                    "scale" => MapMode::Scale,
+                    "raw" => MapMode::Raw,
+                    _ => return Err(bad(format!("expected trinary, scale or raw, got `{v}`"))),
+                }
+            }
+            _ => unreachable!("key checked against KEYS"),
+        }
+    }
+    let missing = |k: &str| err(None, Some(k), "missing".into());
+    if free.0 >= occupied.0 {
+        return Err(err(
+            Some(free.1.max(occupied.1)).filter(|&l| l > 0),
+            Some("free_thresh"),
+            format!(
+                "free_thresh {} must be below occupied_thresh {}",
+                free.0, occupied.0
+            ),
+        ));
+    }
+    Ok(MapYaml {
+        image: image.ok_or_else(|| missing("image"))?,
+        resolution: resolution.ok_or_else(|| missing("resolution"))?,
+        origin: origin.ok_or_else(|| missing("origin"))?,
+        negate: negate.0,
+        occupied_thresh: occupied.0,
+        free_thresh: free.0,
+        mode,
+    })
+}
+
+/// The YAML text of `y` (numbers in Rust's shortest round-trip form).
+pub fn format_map_yaml(y: &MapYaml) -> String {
+    format!(
+        "image: {}\nmode: {}\nresolution: {}\norigin: [{}, {}, {}]\nnegate: {}\noccupied_thresh: {}\nfree_thresh: {}\n",
+        y.image.display(),
+        y.mode.as_str(),
+        y.resolution,
+        y.origin[0],
+        y.origin[1],
+        y.origin[2],
+        u8::from(y.negate),
+        y.occupied_thresh,
+        y.free_thresh
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = "# saved by map_saver\nimage: \"map.pgm\"  # the picture\nresolution: 0.050000\norigin: [-10.000000, -10.000000, 0.000000]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n";
+
+    #[test]
+    fn map_saver_output_parses() {
+        let y = parse_map_yaml(Path::new("m.yaml"), GOOD).unwrap();
+        assert_eq!(y.image, PathBuf::from("map.pgm"));
+        assert_eq!(y.resolution, 0.05);
+        assert_eq!(y.origin, [-10.0, -10.0, 0.0]);
+        assert!(!y.negate);
+        assert_eq!(y.mode, MapMode::Trinary);
+        let again = parse_map_yaml(Path::new("m.yaml"), &format_map_yaml(&y)).unwrap();
+        assert_eq!(again, y);
+    }
+
+    fn error_of(text: &str) -> String {
+        parse_map_yaml(Path::new("bad.yaml"), text)
+            .unwrap_err()
+            .to_string()
+    }
+
+    #[test]
+    fn malformed_files_name_file_line_and_key() {
+        let e = error_of(&GOOD.replace("resolution: 0.050000", "resolution: fine"));
+        assert!(e.starts_with("bad.yaml:3: key `resolution`"), "{e}");
+        let e = error_of(&GOOD.replace("negate: 0", "negate: 0\ncolour: red"));
+        assert!(
+            e.starts_with("bad.yaml:6: key `colour`: unknown key"),
+            "{e}"
+        );
+        let e = error_of(&GOOD.replace("image: \"map.pgm\"  # the picture\n", ""));
+        assert!(e.starts_with("bad.yaml: key `image`: missing"), "{e}");
+        let e = error_of(&GOOD.replace("0.000000]", "0.5]"));
+        assert!(e.contains("key `origin`") && e.contains("yaw"), "{e}");
+        let e = error_of(&GOOD.replace("[-10.000000, -10.000000, 0.000000]", "[1, 2"));
+        assert!(e.starts_with("bad.yaml:4: key `origin`"), "{e}");
+        let e = error_of(&GOOD.replace("free_thresh: 0.196", "free_thresh: 0.9"));
+        assert!(e.starts_with("bad.yaml:7: key `free_thresh`"), "{e}");
+        let e = error_of(&format!("{GOOD}resolution: 0.1\n"));
+        assert!(e.contains("repeated (first on line 3)"), "{e}");
+        let e = error_of("image: a.pgm\n  nested: 1\n");
+        assert!(e.starts_with("bad.yaml:2:"), "{e}");
+        let e = error_of("just some text\n");
+        assert!(e.starts_with("bad.yaml:1:"), "{e}");
+        let e = error_of("image: \"a.pgm\n");
+        assert!(e.contains("unclosed quote"), "{e}");
+        let e = error_of(&GOOD.replace("resolution: 0.050000", "resolution: -1"));
+        assert!(e.contains("positive"), "{e}");
+        let e = error_of(&GOOD.replace("resolution: 0.050000", "resolution: NaN"));
+        assert!(e.contains("finite"), "{e}");
+    }
+}

@@ -1,0 +1,425 @@
+//! The simulator process: owns simulated time and drives the tick protocol.
+//!
+//! Per tick k: publish `SimState` (the whole world at the start of k, history 1), then
+//! `RobotState` and `WorldTruth` for time t_k, then `Tick{k}`; in lockstep wait for
+//! every stage that acts on k (lidar, mapper, supervisor, and the controller on its
+//! ticks); apply the supervisor's new `SimCommand`s and the newest controller
+//! `Trajectory`; step the world by dt. In realtime the wall clock releases the next tick
+//! instead and nobody is waited for.
+//!
+//! A restarted simulator (`NodeArgs::restarted`) reads its last `SimState` back and
+//! resumes at that tick: commands and trajectories it had not applied yet are still in
+//! their services' history, so a lockstep run continues bit for bit.
+//!
+//! This is the adapter between [`crate::World`] and the bus; it holds no physics.
+
+use crate::World;
+use crate::kinematics::{Twist, WheelSpeeds};
+use crate::timeline::{CommandTimeline, TimedCommand};
+use crate::world::{Carried, RobotState as WorldRobot, WorldSnapshot};
+use aisle_bus::{
+    Bus, HeartbeatSender, NodeArgs, NodeError, Publisher, StageTimer, Stamp, Subscriber,
+    WaitOutcome, clock, signals,
+};
+use aisle_config::scene::Scene;
+use aisle_geometry::Pose2;
+use aisle_messages::{
+    MAX_BODIES, NodeKind, NodeState, RobotState, STAGE_CONTROLLER, SimCommand, SimCommandKind,
+    SimState, StageStatus, Tick, TickDone, TickMode, Trajectory, WorldTruth, services, write_name,
+};
+use std::time::Duration;
+
+/// How long a lockstep tick may wait for its stages before the simulator gives up.
+const STAGE_TIMEOUT: Duration = Duration::from_secs(60);
+/// How long a restarted simulator waits for its published state.
+const RESUME_TIMEOUT: Duration = Duration::from_secs(5);
+
+struct Ports {
+    state: Publisher<SimState>,
+    robot: Publisher<RobotState>,
+    truth: Publisher<WorldTruth>,
+    tick: Publisher<Tick>,
+    done_out: Publisher<TickDone>,
+    done_in: Subscriber<TickDone>,
+    commands: Subscriber<SimCommand>,
+    trajectory: Subscriber<Trajectory>,
+}
+
+impl Ports {
+    /// Hands the history of the state services to processes that (re)joined.
+    fn refresh(&self) {
+        let _ = self.state.update_connections();
+        let _ = self.robot.update_connections();
+        let _ = self.truth.update_connections();
+        let _ = self.tick.update_connections();
+    }
+}
+
+/// What the simulator has consumed so far (part of its resumable state).
+#[derive(Debug, Clone, Copy, Default)]
+struct Applied {
+    command_id: u64,
+    trajectory: (u64, u64),
+}
+
+pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
+    let robot_toml = args.config_dir.join("robot.toml");
+    let scene_path = args.config_dir.join("warehouse.toml");
+    let (cfg, model) =
+        crate::load_robot(&robot_toml).map_err(|e| NodeError::setup("simulator", e))?;
+    let scene = Scene::load(&scene_path).map_err(|e| NodeError::setup("simulator", e))?;
+    let start = Pose2::new(args.start[0], args.start[1], args.start[2]);
+    let mut world = World::new_at(&scene, &model, &cfg, start)
+        .map_err(|e| NodeError::setup("simulator: start pose", e))?;
+    if world.bodies().len() > MAX_BODIES {
+        return Err(NodeError::setup(
+            "simulator",
+            format!(
+                "the scene has {} bodies, WorldTruth holds {MAX_BODIES}",
+                world.bodies().len()
+            ),
+        ));
+    }
+
+    let (bus, info) = Bus::join(&args.instance, NodeKind::Simulator, NodeArgs::JOIN_TIMEOUT)?;
+    let mode = TickMode::from_u32(info.mode).unwrap_or(TickMode::Lockstep);
+    let mut ports = Ports {
+        state: bus.publisher(services::SIM_STATE)?,
+        robot: bus.publisher(services::ROBOT_STATE)?,
+        truth: bus.publisher(services::WORLD_TRUTH)?,
+        tick: bus.publisher(services::TICK)?,
+        done_out: bus.publisher(services::TICK_DONE)?,
+        done_in: bus.subscriber(services::TICK_DONE)?,
+        commands: bus.subscriber(services::SIM_COMMAND)?,
+        trajectory: bus.subscriber(services::TRAJECTORY)?,
+    };
+    let mut heartbeat = bus.heartbeat()?;
+    let mut applied = Applied::default();
+    let mut k: u64 = 0;
+
+    if args.restarted {
+        let own = bus.subscriber::<SimState>(services::SIM_STATE)?;
+        let (outcome, sample) = own.wait_for(RESUME_TIMEOUT, |_| true, || {})?;
+        let (WaitOutcome::Matched, Some(s)) = (outcome, sample) else {
+            return Err(NodeError::Protocol(
+                "simulator: restarted, but no published state to resume from".into(),
+            ));
+        };
+        let mut newest = *s;
+        drop(s);
+        while let Some(s) = own.receive()? {
+            newest = *s;
+        }
+        restore(&mut world, &newest)?;
+        k = newest.next_tick;
+        applied = Applied {
+            command_id: newest.last_command_id,
+            trajectory: (newest.last_trajectory_tick, newest.last_trajectory_seq),
+        };
+        tracing::warn!(
+            "simulator: resumed at tick {k} (t = {:.1} s)",
+            world.time_ns() as f64 * 1e-9
+        );
+        heartbeat.send(NodeState::Running, "resumed")?;
+    } else {
+        heartbeat.send(NodeState::Ready, "")?;
+        // Wait for the supervisor's Start: every process is ready by then.
+        loop {
+            let hb = &mut heartbeat;
+            let (outcome, _) = ports.commands.wait_for(
+                Duration::from_millis(200),
+                |c| c.kind == SimCommandKind::Start as u32,
+                || {
+                    let _ = hb.tick(NodeState::Ready);
+                },
+            )?;
+            if outcome == WaitOutcome::Matched {
+                break;
+            }
+        }
+    }
+
+    let dt_ns = args.dt_ns;
+    let every = args.controller_every.max(1) as u64;
+    let wall_start = clock::monotonic_ns();
+    let first_tick = k;
+    loop {
+        if signals::stop_requested() {
+            return Err(aisle_bus::BusError::StopRequested.into());
+        }
+        let tick_wall_ns = clock::monotonic_ns();
+        let stamp = Stamp {
+            stamp_ns: world.time_ns(),
+            tick: k,
+            tick_wall_ns,
+        };
+        publish_sim_state(&mut ports.state, &world, stamp, applied)?;
+        publish_state(&mut ports, &world, stamp)?;
+        let stages = if k.is_multiple_of(every) {
+            STAGE_CONTROLLER
+        } else {
+            0
+        };
+        ports.tick.publish(stamp, |t| {
+            t.dt_ns = dt_ns;
+            t.mode = mode as u32;
+            t.stages = stages;
+            t.seed = info.seed;
+        })?;
+        heartbeat.tick(NodeState::Running)?;
+
+        match mode {
+            TickMode::Lockstep => wait_stages(&ports, &mut heartbeat, k, stages)?,
+            TickMode::Realtime => {
+                // Release the next tick on the wall clock.
+                let due = wall_start + (k + 1 - first_tick) * dt_ns;
+                loop {
+                    let now = clock::monotonic_ns();
+                    if now >= due {
+                        break;
+                    }
+                    if signals::stop_requested() {
+                        return Err(aisle_bus::BusError::StopRequested.into());
+                    }
+                    std::thread::sleep(Duration::from_nanos((due - now).min(20_000_000)));
+                }
+            }
+        }
+
+        let timer = StageTimer::start();
+        while let Some(cmd) = ports.commands.receive()? {
+            // History replays commands to a restarted simulator: apply each once.
+            if cmd.command_id > applied.command_id {
+                applied.command_id = cmd.command_id;
+                apply_command(&mut world, &cmd);
+            }
+        }
+        if let Some(traj) = ports.trajectory.latest()? {
+            let id = (traj.header.tick, traj.header.seq);
+            if id != applied.trajectory {
+                applied.trajectory = id;
+                let n = (traj.len as usize).min(traj.commands.len());
+                if n == 0 {
+                    world.stop();
+                } else {
+                    let cmds = traj.commands[..n].iter().map(|c| (c.t, c.v, c.w));
+                    if let Err(e) = world.set_timeline_iter(traj.start_ns, cmds) {
+                        // A malformed timeline is refused; the watchdog stops the robot
+                        // when the previous one runs out.
+                        tracing::warn!(
+                            "simulator: trajectory of tick {} refused: {e}",
+                            traj.header.tick
+                        );
+                    }
+                }
+            }
+        }
+        let report = world.step(dt_ns);
+        if report.new_collisions > 0 {
+            let body = report
+                .first_contact
+                .and_then(|i| world.bodies().get(i))
+                .map_or("?", |b| b.name.as_str());
+            let p = report.robot.pose;
+            tracing::warn!(
+                "simulator: collision with `{body}` at t = {:.1} s, robot at ({:.2}, {:.2}, {:.2})",
+                report.time_ns as f64 * 1e-9,
+                p.x,
+                p.y,
+                p.theta
+            );
+        }
+        let compute_ns = timer.elapsed_ns();
+        ports.done_out.publish(stamp, |d| {
+            d.node = NodeKind::Simulator as u32;
+            d.status = StageStatus::Done as u32;
+            d.compute_ns = compute_ns;
+        })?;
+        k += 1;
+    }
+}
+
+fn apply_command(world: &mut World, cmd: &SimCommand) {
+    let result = match SimCommandKind::from_u32(cmd.kind) {
+        Some(SimCommandKind::Attach) => {
+            let name = aisle_messages::read_name(&cmd.name);
+            match world.body_index(name) {
+                Some(i) => world.attach(i),
+                None if cmd.body_index >= 0 => world.attach(cmd.body_index as usize),
+                None => world.attach_by_name(name),
+            }
+        }
+        Some(SimCommandKind::Detach) => world.detach().map(|_| ()),
+        Some(SimCommandKind::Stop) => {
+            world.stop();
+            Ok(())
+        }
+        Some(SimCommandKind::Start) => Ok(()),
+        None => {
+            tracing::warn!("simulator: unknown command kind {}", cmd.kind);
+            Ok(())
+        }
+    };
+    if let Err(e) = result {
+        tracing::warn!("simulator: command {} refused: {e}", cmd.command_id);
+    }
+}
+
+fn publish_sim_state(
+    port: &mut Publisher<SimState>,
+    world: &World,
+    stamp: Stamp,
+    applied: Applied,
+) -> Result<(), NodeError> {
+    let snap = world.snapshot();
+    port.publish(stamp, |m| {
+        m.next_tick = stamp.tick;
+        m.time_ns = snap.time_ns;
+        m.pose = snap.robot.pose.into();
+        m.twist = [snap.robot.twist.v, snap.robot.twist.w];
+        m.wheels = [snap.robot.wheels.left, snap.robot.wheels.right];
+        m.watchdog_stopped = snap.robot.watchdog_stopped as u8;
+        m.wheels_clamped = snap.robot.wheels_clamped as u8;
+        match snap.carried {
+            Some(c) => {
+                m.carried_body = c.body as i32;
+                m.carried_offset = c.offset.into();
+            }
+            None => m.carried_body = -1,
+        }
+        m.collisions = snap.collisions;
+        m.min_clearance = snap.min_clearance;
+        m.last_command_id = applied.command_id;
+        m.last_trajectory_tick = applied.trajectory.0;
+        m.last_trajectory_seq = applied.trajectory.1;
+        m.bodies_len = snap.body_poses.len() as u32;
+        for (dst, (p, c)) in m
+            .body_poses
+            .iter_mut()
+            .zip(m.in_contact.iter_mut())
+            .zip(snap.body_poses.iter().zip(&snap.in_contact))
+        {
+            *dst.0 = (*p).into();
+            *dst.1 = *c as u8;
+        }
+        let entries = snap.timeline.commands();
+        m.timeline_len = entries.len() as u32;
+        m.timeline_start_ns = snap.timeline.start_ns();
+        for (dst, e) in m.timeline.iter_mut().zip(entries) {
+            dst.offset_ns = e.offset_ns;
+            dst.v = e.twist.v;
+            dst.w = e.twist.w;
+        }
+    })?;
+    Ok(())
+}
+
+/// Puts `world` back into the state `m` describes.
+fn restore(world: &mut World, m: &SimState) -> Result<(), NodeError> {
+    let n = (m.bodies_len as usize).min(MAX_BODIES);
+    let tl = (m.timeline_len as usize).min(m.timeline.len());
+    let entries: Vec<TimedCommand> = m.timeline[..tl]
+        .iter()
+        .map(|e| TimedCommand {
+            offset_ns: e.offset_ns,
+            twist: Twist { v: e.v, w: e.w },
+        })
+        .collect();
+    let timeline = CommandTimeline::from_entries(m.timeline_start_ns, &entries)
+        .map_err(|e| NodeError::Protocol(format!("simulator: published timeline: {e}")))?;
+    let snap = WorldSnapshot {
+        time_ns: m.time_ns,
+        robot: WorldRobot {
+            pose: m.pose.into(),
+            twist: Twist {
+                v: m.twist[0],
+                w: m.twist[1],
+            },
+            wheels: WheelSpeeds {
+                left: m.wheels[0],
+                right: m.wheels[1],
+            },
+            watchdog_stopped: m.watchdog_stopped != 0,
+            wheels_clamped: m.wheels_clamped != 0,
+        },
+        carried: (m.carried_body >= 0).then(|| Carried {
+            body: m.carried_body as usize,
+            offset: m.carried_offset.into(),
+        }),
+        body_poses: m.body_poses[..n].iter().map(|p| (*p).into()).collect(),
+        in_contact: m.in_contact[..n].iter().map(|&c| c != 0).collect(),
+        collisions: m.collisions,
+        min_clearance: m.min_clearance,
+        timeline,
+    };
+    world
+        .restore(&snap)
+        .map_err(|e| NodeError::Protocol(format!("simulator: resuming: {e}")))
+}
+
+fn publish_state(ports: &mut Ports, world: &World, stamp: Stamp) -> Result<(), NodeError> {
+    let rs = world.robot_state();
+    let carried = world.carried().map_or(-1, |c| c.body as i32);
+    let collisions = u32::try_from(world.collisions()).unwrap_or(u32::MAX);
+    ports.robot.publish(stamp, |m| {
+        m.pose = rs.pose.into();
+        m.twist = [rs.twist.v, rs.twist.w];
+        m.wheel_speeds = [rs.wheels.left, rs.wheels.right];
+        m.carried_body = carried;
+        m.watchdog_stopped = rs.watchdog_stopped as u32;
+        m.collisions = collisions;
+    })?;
+    let min_clearance = world.min_clearance();
+    ports.truth.publish(stamp, |m| {
+        let bodies = world.bodies();
+        m.len = bodies.len() as u32;
+        m.collisions = collisions;
+        m.min_clearance = min_clearance;
+        for (i, (dst, b)) in m.bodies.iter_mut().zip(bodies).enumerate() {
+            write_name(&mut dst.name, &b.name);
+            dst.pose = b.pose.into();
+            let fp = b.footprint();
+            dst.size = [fp.length, fp.width, b.height()];
+            dst.is_static = b.is_static as u8;
+            dst.carried = (carried == i as i32) as u8;
+        }
+    })?;
+    Ok(())
+}
+
+fn wait_stages(
+    ports: &Ports,
+    heartbeat: &mut HeartbeatSender,
+    k: u64,
+    stages: u32,
+) -> Result<(), NodeError> {
+    let mut pending = vec![NodeKind::Lidar, NodeKind::Mapper, NodeKind::Supervisor];
+    if stages & STAGE_CONTROLLER != 0 {
+        pending.push(NodeKind::TebController);
+    }
+    let started = std::time::Instant::now();
+    while !pending.is_empty() {
+        let (outcome, sample) = ports.done_in.wait_for(
+            Duration::from_millis(200),
+            |d| d.header.tick == k && pending.iter().any(|p| *p as u32 == d.node),
+            || {
+                let _ = heartbeat.tick(NodeState::Running);
+                ports.refresh();
+            },
+        )?;
+        if outcome == WaitOutcome::Matched
+            && let Some(d) = sample
+        {
+            let node = d.node;
+            pending.retain(|p| *p as u32 != node);
+        } else if started.elapsed() > STAGE_TIMEOUT {
+            let names: Vec<&str> = pending.iter().map(|p| p.name()).collect();
+            return Err(NodeError::Protocol(format!(
+                "tick {k}: no acknowledgement from {} within {} s",
+                names.join(", "),
+                STAGE_TIMEOUT.as_secs()
+            )));
+        }
+    }
+    Ok(())
+}

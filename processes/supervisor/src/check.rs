@@ -1,0 +1,175 @@
+//! `aisle check` and `aisle map export`: load every config file the way the processes
+//! will, so a mistake is reported with its file, line and key before anything starts.
+
+use crate::budgets::Budgets;
+use crate::mission::MissionConfig;
+use aisle_config::ConfigError;
+use aisle_config::scene::Scene;
+use std::path::{Path, PathBuf};
+
+/// The files a config directory holds, by role.
+pub struct ConfigFiles {
+    pub scene: PathBuf,
+    pub robot: PathBuf,
+    pub lidar: PathBuf,
+    pub mapper: PathBuf,
+    pub planner: PathBuf,
+    pub teb: PathBuf,
+    pub mission: PathBuf,
+    pub budgets: PathBuf,
+    pub restart: PathBuf,
+}
+
+impl ConfigFiles {
+    pub fn in_dir(dir: &Path) -> ConfigFiles {
+        ConfigFiles {
+            scene: dir.join("warehouse.toml"),
+            robot: dir.join("robot.toml"),
+            lidar: dir.join("lidar.toml"),
+            mapper: dir.join("mapper.toml"),
+            planner: dir.join("planner.toml"),
+            teb: dir.join("teb.toml"),
+            mission: dir.join("mission.toml"),
+            budgets: dir.join("budgets.toml"),
+            restart: dir.join("restart.toml"),
+        }
+    }
+
+    fn all(&self) -> [&Path; 9] {
+        [
+            &self.scene,
+            &self.robot,
+            &self.lidar,
+            &self.mapper,
+            &self.planner,
+            &self.teb,
+            &self.mission,
+            &self.budgets,
+            &self.restart,
+        ]
+    }
+}
+
+/// Loads the planner's config with the error naming file, line and key.
+pub fn load_planner_config(
+    path: &Path,
+) -> Result<aisle_global_planner::PlannerConfig, ConfigError> {
+    let (cfg, text) = aisle_config::load_toml::<aisle_global_planner::PlannerConfig>(path)?;
+    cfg.validate()
+        .map_err(|e| ConfigError::invalid(path, &text, e.key, e.reason.clone()))?;
+    Ok(cfg)
+}
+
+/// Validates every config file in `dir`; returns the files checked. A `.toml` file that
+/// aisle does not read is an error too (a typo in a file name would otherwise be
+/// silently ignored).
+pub fn check_dir(dir: &Path) -> Result<Vec<PathBuf>, String> {
+    if !dir.is_dir() {
+        return Err(format!("{}: not a directory", dir.display()));
+    }
+    let files = ConfigFiles::in_dir(dir);
+    let scene = Scene::load(&files.scene).map_err(|e| e.to_string())?;
+    let (robot, model) = aisle_simulator::load_robot(&files.robot).map_err(|e| e.to_string())?;
+    let lidar = aisle_lidar::LidarConfig::load(&files.lidar).map_err(|e| e.to_string())?;
+    // The lidar node mounts the sensor from lidar.toml; the robot model names the same
+    // mount. Two files must not tell two stories.
+    if lidar.mount.link != robot.lidar_mount.link
+        || lidar.mount.xyz != robot.lidar_mount.offset
+        || lidar.mount.rpy != [0.0; 3]
+    {
+        return Err(format!(
+            "{}: mount (link `{}`, xyz {:?}, rpy {:?}) differs from {}: lidar_mount (link `{}`, offset {:?}, no rotation)",
+            files.lidar.display(),
+            lidar.mount.link,
+            lidar.mount.xyz,
+            lidar.mount.rpy,
+            files.robot.display(),
+            robot.lidar_mount.link,
+            robot.lidar_mount.offset
+        ));
+    }
+    let map_cfg = aisle_mapper::MapConfig::load(&files.mapper).map_err(|e| e.to_string())?;
+    aisle_mapper::load_static_map(&map_cfg, &files.scene)
+        .map_err(|e| format!("{}: {e}", files.mapper.display()))?;
+    load_planner_config(&files.planner).map_err(|e| e.to_string())?;
+    aisle_teb_controller::TebConfig::load(&files.teb).map_err(|e| e.to_string())?;
+    MissionConfig::load(&files.mission, &scene).map_err(|e| e.to_string())?;
+    Budgets::load(&files.budgets).map_err(|e| e.to_string())?;
+    crate::restart::RestartConfig::load(&files.restart).map_err(|e| e.to_string())?;
+    let mut checked: Vec<PathBuf> = files.all().iter().map(|p| p.to_path_buf()).collect();
+    checked.push(model.file().to_path_buf());
+    let known: Vec<PathBuf> = checked
+        .iter()
+        .filter_map(|p| p.file_name().map(PathBuf::from))
+        .collect();
+    let entries = std::fs::read_dir(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    for entry in entries.flatten() {
+        let p = entry.path();
+        if p.extension().is_some_and(|e| e == "toml")
+            && !known.iter().any(|k| Some(k.as_os_str()) == p.file_name())
+        {
+            return Err(format!(
+                "{}: not a file aisle reads (expected warehouse, robot, lidar, mapper, planner, teb, mission, budgets, restart .toml)",
+                p.display()
+            ));
+        }
+    }
+    Ok(checked)
+}
+
+/// Writes the scene's static map (as the mapper builds it) in ROS map_server format.
+pub fn export_map(
+    config_dir: &Path,
+    out_dir: &Path,
+    name: &str,
+) -> Result<(PathBuf, PathBuf), String> {
+    let files = ConfigFiles::in_dir(config_dir);
+    let cfg = aisle_mapper::MapConfig::load(&files.mapper).map_err(|e| e.to_string())?;
+    let grid = aisle_mapper::load_static_map(&cfg, &files.scene).map_err(|e| e.to_string())?;
+    std::fs::create_dir_all(out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
+    let yaml = out_dir.join(format!("{name}.yaml"));
+    let pgm =
+        aisle_mapper::ros_map::write_ros_map(&yaml, &grid.view()).map_err(|e| e.to_string())?;
+    Ok((yaml, pgm))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn shipped() -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config")
+    }
+
+    #[test]
+    fn the_shipped_config_is_valid() {
+        let files = check_dir(&shipped()).unwrap();
+        assert!(files.len() >= 9);
+    }
+
+    #[test]
+    fn a_bad_key_is_named_with_file_and_line() {
+        let dir = std::env::temp_dir().join(format!("aisle-check-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        for e in std::fs::read_dir(shipped()).unwrap().flatten() {
+            if e.path().is_file() {
+                std::fs::copy(e.path(), dir.join(e.file_name())).unwrap();
+            }
+        }
+        let budgets = std::fs::read_to_string(dir.join("budgets.toml")).unwrap();
+        std::fs::write(
+            dir.join("budgets.toml"),
+            budgets.replace("lidar = 10.0", "lidar = -1.0"),
+        )
+        .unwrap();
+        let err = check_dir(&dir).unwrap_err();
+        assert!(err.contains("budgets.toml"), "{err}");
+        assert!(err.contains("stage.lidar"), "{err}");
+        std::fs::write(dir.join("budgets.toml"), budgets).unwrap();
+        std::fs::write(dir.join("lidr.toml"), "").unwrap();
+        let err = check_dir(&dir).unwrap_err();
+        assert!(err.contains("lidr.toml"), "{err}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

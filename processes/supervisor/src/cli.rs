@@ -1,0 +1,211 @@
+//! Command-line interface. Parses arguments, sets up logging, and maps every outcome to
+//! an exit code: 0 success, 1 mission or check failure, 2 usage or setup error.
+
+use crate::{check, nodes, session};
+use aisle_messages::TickMode;
+use clap::{Args, Parser, Subcommand};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "aisle",
+    version,
+    about = "Warehouse robot navigation: run the seed mission, check configs, export maps"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Launch the process group and run the mission of `config/mission.toml`.
+    Run(RunArgs),
+    /// Validate every file in the config directory.
+    Check {
+        #[arg(long)]
+        config_dir: Option<PathBuf>,
+    },
+    /// Maps: export the scene's static map in ROS map_server format.
+    Map {
+        #[command(subcommand)]
+        command: MapCommand,
+    },
+    /// Run one node of a process group (started by `aisle run`, not by hand).
+    #[command(hide = true)]
+    Node(NodeCmd),
+}
+
+#[derive(Debug, Subcommand)]
+pub enum MapCommand {
+    /// Write `<dir>/<name>.yaml` and `<dir>/<name>.pgm` from the static scene.
+    Export {
+        /// Output directory (created if missing).
+        dir: PathBuf,
+        #[arg(long, default_value = "warehouse")]
+        name: String,
+        #[arg(long)]
+        config_dir: Option<PathBuf>,
+    },
+}
+
+#[derive(Debug, Clone, Args)]
+pub struct RunArgs {
+    /// Tick on the wall clock at the update rate instead of lockstep.
+    #[arg(long)]
+    pub realtime: bool,
+    /// Directory of the config files (default: ./config, else the built-in one).
+    #[arg(long)]
+    pub config_dir: Option<PathBuf>,
+    /// Write the mission metrics and the latency table as JSON.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// No progress lines, only the summary.
+    #[arg(long)]
+    pub quiet: bool,
+    /// Seed of the run (lidar noise).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Switch the lidar off: it returns nothing (shows what the unseen obstacles do).
+    #[arg(long)]
+    pub no_lidar: bool,
+    /// Mission file instead of `<config-dir>/mission.toml`.
+    #[arg(long)]
+    pub mission: Option<PathBuf>,
+    /// Fault injection: SIGKILL a node when the run reaches a tick, e.g. `lidar@120`
+    /// (once; the node is restarted as after any crash). Repeatable.
+    #[arg(long = "kill", value_name = "NODE@TICK")]
+    pub kill: Vec<String>,
+    /// Fault injection: this node fails at every start (tests the restart limit).
+    #[arg(long, value_name = "NODE", hide = true)]
+    pub crash_on_start: Option<String>,
+}
+
+#[derive(Debug, Args)]
+pub struct NodeCmd {
+    pub name: String,
+    #[arg(long)]
+    pub prefix: String,
+    #[arg(long)]
+    pub root: PathBuf,
+    #[arg(long)]
+    pub config_dir: PathBuf,
+    #[arg(long, default_value_t = 100_000_000)]
+    pub dt_ns: u64,
+    #[arg(long, default_value_t = 5)]
+    pub controller_every: u32,
+    /// Start pose `x,y,heading`.
+    #[arg(long, default_value = "0,0,0", allow_hyphen_values = true)]
+    pub start: String,
+    #[arg(long)]
+    pub lidar_off: bool,
+    /// This node replaces one that died: resume from its published state.
+    #[arg(long)]
+    pub restarted: bool,
+    /// Fault injection for tests: fail at start, every time.
+    #[arg(long, hide = true)]
+    pub fail_on_start: bool,
+}
+
+/// The config directory: explicit, else `./config`, else the one this binary was built
+/// from (so `cargo run` works from any directory of the checkout).
+pub fn config_dir(explicit: Option<&Path>) -> PathBuf {
+    if let Some(p) = explicit {
+        return p.to_path_buf();
+    }
+    let local = PathBuf::from("config");
+    if local.join("warehouse.toml").is_file() {
+        return local;
+    }
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config")
+}
+
+fn init_logging(default: &str) {
+    let filter = tracing_subscriber::EnvFilter::try_from_env("AISLE_LOG")
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_target(false)
+        .try_init();
+}
+
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Node(cmd) => {
+            init_logging("warn");
+            nodes::main(cmd)
+        }
+        Command::Check { config_dir: dir } => {
+            init_logging("warn");
+            let dir = config_dir(dir.as_deref());
+            match check::check_dir(&dir) {
+                Ok(files) => {
+                    for f in &files {
+                        println!("ok  {}", f.display());
+                    }
+                    println!("{} config files valid in {}", files.len(), dir.display());
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::from(1)
+                }
+            }
+        }
+        Command::Map {
+            command:
+                MapCommand::Export {
+                    dir,
+                    name,
+                    config_dir: cd,
+                },
+        } => {
+            init_logging("warn");
+            let cd = config_dir(cd.as_deref());
+            match check::export_map(&cd, &dir, &name) {
+                Ok((yaml, pgm)) => {
+                    println!("wrote {} and {}", yaml.display(), pgm.display());
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::from(1)
+                }
+            }
+        }
+        Command::Run(args) => {
+            init_logging("info");
+            let opts = session::RunOptions {
+                config_dir: config_dir(args.config_dir.as_deref()),
+                mode: if args.realtime {
+                    TickMode::Realtime
+                } else {
+                    TickMode::Lockstep
+                },
+                report: args.report.clone(),
+                quiet: args.quiet,
+                seed: args.seed,
+                lidar_off: args.no_lidar,
+                mission: args.mission.clone(),
+                kill: args.kill.clone(),
+                crash_on_start: args.crash_on_start.clone(),
+            };
+            match session::run(&opts) {
+                Ok(outcome) => {
+                    if outcome.succeeded {
+                        ExitCode::SUCCESS
+                    } else {
+                        ExitCode::from(1)
+                    }
+                }
+                Err(e) => {
+                    eprintln!("error: {e:#}");
+                    ExitCode::from(2)
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,228 @@
+//! The process group: spawning the nodes by re-executing this binary, noticing when
+//! one dies, and stopping all of them (SIGTERM, a grace period, SIGKILL), reaping each.
+//!
+//! Knows processes and signals, not what the nodes do.
+
+use aisle_bus::Instance;
+use aisle_messages::NodeKind;
+use std::collections::HashMap;
+use std::io::{BufRead, BufReader};
+use std::os::unix::process::{CommandExt, ExitStatusExt};
+use std::path::PathBuf;
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// How a child ended, in words a person can act on.
+pub fn describe(status: &ExitStatus) -> String {
+    match (status.code(), status.signal()) {
+        (Some(c), _) => format!("exited with code {c}"),
+        (None, Some(s)) => format!("was killed by signal {s} ({})", signal_name(s)),
+        _ => "ended for an unknown reason".to_string(),
+    }
+}
+
+fn signal_name(s: i32) -> &'static str {
+    match s {
+        libc::SIGKILL => "SIGKILL",
+        libc::SIGTERM => "SIGTERM",
+        libc::SIGINT => "SIGINT",
+        libc::SIGSEGV => "SIGSEGV",
+        libc::SIGABRT => "SIGABRT",
+        libc::SIGBUS => "SIGBUS",
+        _ => "other",
+    }
+}
+
+pub struct RunningChild {
+    pub kind: NodeKind,
+    pub child: Child,
+    pub exited: Option<ExitStatus>,
+}
+
+/// Everything a child needs on its command line.
+pub struct LaunchSpec {
+    pub exe: PathBuf,
+    pub instance: Instance,
+    pub config_dir: PathBuf,
+    /// Extra arguments per node (clock, start pose, the lidar switched off, faults).
+    pub extra: Box<dyn Fn(NodeKind) -> Vec<String>>,
+}
+
+/// The launched nodes. Dropping the group stops it.
+pub struct ProcessGroup {
+    pub children: Vec<RunningChild>,
+    spec: LaunchSpec,
+    /// The last line each node wrote to stderr (its last error), forwarded as it comes.
+    last_lines: Arc<Mutex<HashMap<NodeKind, String>>>,
+}
+
+impl ProcessGroup {
+    pub fn new(spec: LaunchSpec) -> Self {
+        ProcessGroup {
+            children: Vec::new(),
+            spec,
+            last_lines: Arc::default(),
+        }
+    }
+
+    /// Starts one node; `restarted` tells it to resume from the state its predecessor
+    /// published. On failure the caller stops the group.
+    pub fn spawn(&mut self, kind: NodeKind, restarted: bool) -> Result<(), String> {
+        let spec = &self.spec;
+        let mut cmd = Command::new(&spec.exe);
+        cmd.arg("node")
+            .arg(kind.name())
+            .arg("--prefix")
+            .arg(&spec.instance.prefix)
+            .arg("--root")
+            .arg(&spec.instance.root)
+            .arg("--config-dir")
+            .arg(&spec.config_dir)
+            .args((spec.extra)(kind))
+            .stdin(Stdio::null())
+            .stderr(Stdio::piped())
+            // Its own process group: a terminal's Ctrl-C reaches the supervisor, which
+            // stops the children in order.
+            .process_group(0);
+        if restarted {
+            cmd.arg("--restarted");
+        }
+        // SAFETY: prctl and getppid are async-signal-safe; nothing else runs between
+        // fork and exec.
+        unsafe {
+            let parent = libc::getpid();
+            cmd.pre_exec(move || {
+                // If the supervisor dies without stopping us, we get SIGTERM.
+                libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM);
+                if libc::getppid() != parent {
+                    libc::_exit(1);
+                }
+                Ok(())
+            });
+        }
+        let mut child = cmd
+            .spawn()
+            .map_err(|e| format!("cannot start {}: {e}", kind.name()))?;
+        if let Some(err) = child.stderr.take() {
+            let lines = Arc::clone(&self.last_lines);
+            // Forward the node's stderr and remember its last line, so that a node that
+            // dies is reported with its own last words.
+            std::thread::spawn(move || {
+                for line in BufReader::new(err).lines().map_while(Result::ok) {
+                    eprintln!("{line}");
+                    if let Ok(mut m) = lines.lock() {
+                        m.insert(kind, line);
+                    }
+                }
+            });
+        }
+        self.children
+            .retain(|c| c.kind != kind || c.exited.is_none());
+        self.children.push(RunningChild {
+            kind,
+            child,
+            exited: None,
+        });
+        Ok(())
+    }
+
+    /// The last line `kind` wrote to stderr, without terminal colour codes.
+    pub fn last_line(&self, kind: NodeKind) -> Option<String> {
+        let m = self.last_lines.lock().ok()?;
+        let line = m.get(&kind)?;
+        let mut out = String::with_capacity(line.len());
+        let mut chars = line.chars();
+        while let Some(c) = chars.next() {
+            if c == '\u{1b}' {
+                // Skip an escape sequence up to its final letter.
+                for d in chars.by_ref() {
+                    if d.is_ascii_alphabetic() {
+                        break;
+                    }
+                }
+            } else {
+                out.push(c);
+            }
+        }
+        Some(out.trim().to_string())
+    }
+
+    /// SIGKILL to a live node (a fault injected on purpose, or a node that stopped
+    /// sending heartbeats); it is reaped by the next [`ProcessGroup::poll_exit`].
+    pub fn kill(&self, kind: NodeKind) {
+        if let Some(pid) = self.pid_of(kind) {
+            // SAFETY: sending a signal to our own child's pid.
+            unsafe { libc::kill(pid as i32, libc::SIGKILL) };
+        }
+    }
+
+    /// The first child found dead since the last call (it is reaped).
+    pub fn poll_exit(&mut self) -> Option<(NodeKind, ExitStatus)> {
+        for c in &mut self.children {
+            if c.exited.is_none()
+                && let Ok(Some(status)) = c.child.try_wait()
+            {
+                c.exited = Some(status);
+                return Some((c.kind, status));
+            }
+        }
+        None
+    }
+
+    pub fn pid_of(&self, kind: NodeKind) -> Option<u32> {
+        self.children
+            .iter()
+            .find(|c| c.kind == kind && c.exited.is_none())
+            .map(|c| c.child.id())
+    }
+
+    /// SIGTERM to every live child, up to `grace` for them to exit, then SIGKILL; every
+    /// child is reaped before this returns. Returns how each ended.
+    pub fn stop(&mut self, grace: Duration) -> Vec<(NodeKind, ExitStatus)> {
+        for c in &self.children {
+            if c.exited.is_none() {
+                // SAFETY: sending a signal to our own child's pid.
+                unsafe { libc::kill(c.child.id() as i32, libc::SIGTERM) };
+            }
+        }
+        let deadline = Instant::now() + grace;
+        loop {
+            let mut alive = 0;
+            for c in &mut self.children {
+                if c.exited.is_none() {
+                    match c.child.try_wait() {
+                        Ok(Some(s)) => c.exited = Some(s),
+                        _ => alive += 1,
+                    }
+                }
+            }
+            if alive == 0 || Instant::now() >= deadline {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        for c in &mut self.children {
+            if c.exited.is_none() {
+                let _ = c.child.kill();
+                c.exited = c.child.wait().ok();
+            }
+        }
+        self.children
+            .iter()
+            .filter_map(|c| c.exited.map(|s| (c.kind, s)))
+            .collect()
+    }
+}
+
+impl Drop for ProcessGroup {
+    fn drop(&mut self) {
+        self.stop(Duration::from_millis(1500));
+    }
+}
+
+/// The binary to re-execute for the nodes: this one.
+pub fn current_exe() -> Result<PathBuf, String> {
+    std::env::current_exe()
+        .map_err(|e| format!("cannot find this executable to start the nodes: {e}"))
+}

@@ -1,0 +1,76 @@
+//! `aisle node <name>`: runs one process of the group. The supervisor re-executes its
+//! own binary with this subcommand, so every node is a separate OS process built from
+//! the same source (and so the same message schema).
+//!
+//! Exit codes: 0 after a stop request, 1 when the node failed (the reason is on stderr
+//! and in its last heartbeat), 2 for a bad command line.
+
+use crate::cli::NodeCmd;
+use aisle_bus::{Instance, NodeArgs, NodeError};
+use aisle_messages::NodeKind;
+use std::process::ExitCode;
+
+pub fn main(cmd: NodeCmd) -> ExitCode {
+    let Some(kind) = NodeKind::from_name(&cmd.name).filter(|k| NodeKind::LAUNCHED.contains(k))
+    else {
+        let names: Vec<&str> = NodeKind::LAUNCHED.iter().map(|k| k.name()).collect();
+        eprintln!(
+            "error: no node named `{}`; nodes are {}",
+            cmd.name,
+            names.join(", ")
+        );
+        return ExitCode::from(2);
+    };
+    let instance = match Instance::new(cmd.prefix.clone(), cmd.root.clone()) {
+        Ok(i) => i,
+        Err(e) => {
+            eprintln!("error: {}: {e}", kind.name());
+            return ExitCode::from(2);
+        }
+    };
+    let start: Vec<f64> = cmd
+        .start
+        .split(',')
+        .filter_map(|v| v.trim().parse().ok())
+        .collect();
+    let Ok(start) = <[f64; 3]>::try_from(start) else {
+        eprintln!(
+            "error: {}: --start needs x,y,heading, got `{}`",
+            kind.name(),
+            cmd.start
+        );
+        return ExitCode::from(2);
+    };
+    let args = NodeArgs {
+        instance,
+        config_dir: cmd.config_dir,
+        dt_ns: cmd.dt_ns,
+        controller_every: cmd.controller_every.max(1),
+        start,
+        lidar_off: cmd.lidar_off,
+        restarted: cmd.restarted,
+    };
+    if cmd.fail_on_start {
+        eprintln!(
+            "error: {}: failing at start, as the --crash-on-start fault injection asks",
+            kind.name()
+        );
+        return ExitCode::from(1);
+    }
+    let result: Result<(), NodeError> = match kind {
+        NodeKind::Simulator => aisle_simulator::node::run(&args),
+        NodeKind::Lidar => aisle_lidar::node::run(&args),
+        NodeKind::Mapper => aisle_mapper::node::run(&args),
+        NodeKind::GlobalPlanner => aisle_global_planner::node::run(&args),
+        NodeKind::TebController => aisle_teb_controller::node::run(&args),
+        _ => unreachable!("filtered above"),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.is_stop() => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {}: {e}", kind.name());
+            ExitCode::from(1)
+        }
+    }
+}

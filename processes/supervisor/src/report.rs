@@ -1,0 +1,150 @@
+//! The metrics of one run, as printed at the end and written by `--report` (JSON).
+//! Plain data: the session fills it, tests and tools read it back.
+
+use crate::budgets::StageSummary;
+use crate::mission::LegResult;
+use serde::{Deserialize, Serialize};
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct BodyPose {
+    pub name: String,
+    pub x: f64,
+    pub y: f64,
+    pub theta: f64,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ReferencePath {
+    /// Index of the leg (0-based) the path was planned for.
+    pub leg: usize,
+    /// x, y, heading, direction (1 forward, -1 reverse, 0 rotate).
+    pub poses: Vec<[f64; 4]>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RunReport {
+    pub success: bool,
+    pub failure: Option<String>,
+    pub mode: String,
+    pub seed: u64,
+    pub lidar: bool,
+    pub sim_time_s: f64,
+    pub wall_time_s: f64,
+    pub ticks: u64,
+    pub path_length_m: f64,
+    /// Smallest distance between the robot (plus carried rack) and any body, ground truth.
+    pub min_clearance_m: f64,
+    pub collisions: u32,
+    pub replans: u32,
+    /// Node restarts after a crash or a missed heartbeat deadline.
+    pub restarts: u32,
+    pub legs: Vec<SerdeLeg>,
+    pub latency: Vec<SerdeStage>,
+    /// t, x, y, heading of the robot at every tick (ground truth).
+    pub driven_path: Vec<[f64; 4]>,
+    pub reference_paths: Vec<ReferencePath>,
+    /// Movable bodies at the end of the run (ground truth).
+    pub bodies_final: Vec<BodyPose>,
+}
+
+/// [`LegResult`] in the report's (de)serialisable form.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct SerdeLeg {
+    pub name: String,
+    pub reached: bool,
+    pub start_s: f64,
+    pub end_s: f64,
+    pub replans: u32,
+    pub plan_failures: u32,
+    pub final_error_m: f64,
+    pub final_heading_error_rad: f64,
+}
+
+impl From<&LegResult> for SerdeLeg {
+    fn from(r: &LegResult) -> Self {
+        SerdeLeg {
+            name: r.name.clone(),
+            reached: r.reached,
+            start_s: r.start_s,
+            end_s: r.end_s,
+            replans: r.replans,
+            plan_failures: r.plan_failures,
+            final_error_m: r.final_error_m,
+            final_heading_error_rad: r.final_heading_error_rad,
+        }
+    }
+}
+
+/// [`StageSummary`] in the report's (de)serialisable form.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct SerdeStage {
+    pub stage: String,
+    pub samples: usize,
+    pub p50_ms: f64,
+    pub p99_ms: f64,
+    pub max_ms: f64,
+    pub jitter_ms: f64,
+    pub budget_ms: f64,
+    pub misses: usize,
+}
+
+impl From<&StageSummary> for SerdeStage {
+    fn from(s: &StageSummary) -> Self {
+        SerdeStage {
+            stage: s.stage.clone(),
+            samples: s.samples,
+            p50_ms: s.p50_ms,
+            p99_ms: s.p99_ms,
+            max_ms: s.max_ms,
+            jitter_ms: s.jitter_ms,
+            budget_ms: s.budget_ms,
+            misses: s.misses,
+        }
+    }
+}
+
+impl RunReport {
+    /// The human summary printed at the end of a run.
+    pub fn summary(&self) -> String {
+        let mut out = String::new();
+        let verdict = if self.success {
+            "mission succeeded".to_string()
+        } else {
+            format!(
+                "mission FAILED: {}",
+                self.failure.as_deref().unwrap_or("unknown")
+            )
+        };
+        out.push_str(&format!("{verdict}\n"));
+        out.push_str(&format!(
+            "  sim time {:.1} s, wall time {:.1} s ({:.2} x sim), {} ticks, {} mode\n",
+            self.sim_time_s,
+            self.wall_time_s,
+            if self.sim_time_s > 0.0 {
+                self.wall_time_s / self.sim_time_s
+            } else {
+                0.0
+            },
+            self.ticks,
+            self.mode
+        ));
+        out.push_str(&format!(
+            "  driven {:.2} m, min clearance {:.3} m, collisions {}, replans {}, restarts {}\n",
+            self.path_length_m, self.min_clearance_m, self.collisions, self.replans, self.restarts
+        ));
+        for (i, l) in self.legs.iter().enumerate() {
+            out.push_str(&format!(
+                "  leg {} {:<14} {:<8} {:6.1} s -> {:6.1} s  error {:.3} m {:.3} rad  replans {}\n",
+                i + 1,
+                l.name,
+                if l.reached { "reached" } else { "failed" },
+                l.start_s,
+                l.end_s,
+                l.final_error_m,
+                l.final_heading_error_rad,
+                l.replans
+            ));
+        }
+        out
+    }
+}

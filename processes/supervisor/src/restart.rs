@@ -1,0 +1,152 @@
+//! Restart policy (`config/restart.toml`) and the count of restarts against it.
+//! Pure bookkeeping: it is told when a node died and answers whether it may restart.
+
+use aisle_config::ConfigError;
+use aisle_messages::NodeKind;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Policy {
+    pub max_restarts: u32,
+    pub window_s: f64,
+    pub heartbeat_timeout_s: f64,
+}
+
+/// Per-node overrides: any field left out takes the default's value.
+#[derive(Debug, Clone, Copy, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PolicyOverride {
+    pub max_restarts: Option<u32>,
+    pub window_s: Option<f64>,
+    pub heartbeat_timeout_s: Option<f64>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RestartConfig {
+    pub default: Policy,
+    #[serde(default)]
+    pub node: BTreeMap<String, PolicyOverride>,
+}
+
+impl RestartConfig {
+    pub fn load(path: &Path) -> Result<RestartConfig, ConfigError> {
+        let (cfg, text) = aisle_config::load_toml::<RestartConfig>(path)?;
+        let bad = |key: String, why: String| ConfigError::invalid(path, &text, &key, why);
+        for (name, o) in &cfg.node {
+            if NodeKind::from_name(name).is_none_or(|k| !NodeKind::LAUNCHED.contains(&k)) {
+                let names: Vec<&str> = NodeKind::LAUNCHED.iter().map(|k| k.name()).collect();
+                return Err(bad(
+                    format!("node.{name}"),
+                    format!("no node `{name}`; nodes are {}", names.join(", ")),
+                ));
+            }
+            let _ = o;
+        }
+        for kind in NodeKind::LAUNCHED {
+            let p = cfg.policy(kind);
+            let key = |field: &str| {
+                if cfg.node.contains_key(kind.name()) {
+                    format!("node.{}.{field}", kind.name())
+                } else {
+                    format!("default.{field}")
+                }
+            };
+            if !(p.window_s.is_finite() && p.window_s > 0.0) {
+                return Err(bad(
+                    key("window_s"),
+                    format!("must be a positive number of seconds, got {}", p.window_s),
+                ));
+            }
+            if !(p.heartbeat_timeout_s.is_finite() && p.heartbeat_timeout_s >= 0.5) {
+                return Err(bad(
+                    key("heartbeat_timeout_s"),
+                    format!("must be at least 0.5 s, got {}", p.heartbeat_timeout_s),
+                ));
+            }
+        }
+        Ok(cfg)
+    }
+
+    pub fn policy(&self, kind: NodeKind) -> Policy {
+        let d = self.default;
+        match self.node.get(kind.name()) {
+            None => d,
+            Some(o) => Policy {
+                max_restarts: o.max_restarts.unwrap_or(d.max_restarts),
+                window_s: o.window_s.unwrap_or(d.window_s),
+                heartbeat_timeout_s: o.heartbeat_timeout_s.unwrap_or(d.heartbeat_timeout_s),
+            },
+        }
+    }
+}
+
+/// Restart times per node (seconds since the run started).
+#[derive(Debug, Default)]
+pub struct RestartBook {
+    times: BTreeMap<&'static str, Vec<f64>>,
+}
+
+impl RestartBook {
+    /// Records a death of `kind` at `now_s`; `Ok(n)` when restart number n within the
+    /// window is allowed, `Err(n)` when the policy is exhausted.
+    pub fn allow(&mut self, kind: NodeKind, policy: &Policy, now_s: f64) -> Result<u32, u32> {
+        let times = self.times.entry(kind.name()).or_default();
+        times.retain(|&t| now_s - t <= policy.window_s);
+        times.push(now_s);
+        let n = times.len() as u32;
+        if n > policy.max_restarts {
+            Err(n - 1)
+        } else {
+            Ok(n)
+        }
+    }
+
+    pub fn total(&self) -> u32 {
+        self.times.values().map(|v| v.len() as u32).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn restarts_are_limited_within_the_window() {
+        let p = Policy {
+            max_restarts: 2,
+            window_s: 10.0,
+            heartbeat_timeout_s: 5.0,
+        };
+        let mut book = RestartBook::default();
+        assert_eq!(book.allow(NodeKind::Lidar, &p, 0.0), Ok(1));
+        assert_eq!(book.allow(NodeKind::Lidar, &p, 1.0), Ok(2));
+        assert_eq!(book.allow(NodeKind::Mapper, &p, 1.0), Ok(1));
+        assert_eq!(book.allow(NodeKind::Lidar, &p, 2.0), Err(2));
+        // Old restarts leave the window.
+        let mut book = RestartBook::default();
+        book.allow(NodeKind::Lidar, &p, 0.0).unwrap();
+        book.allow(NodeKind::Lidar, &p, 1.0).unwrap();
+        assert_eq!(book.allow(NodeKind::Lidar, &p, 20.0), Ok(1));
+    }
+
+    #[test]
+    fn the_shipped_policy_loads_and_overrides_apply() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config");
+        let cfg = RestartConfig::load(&dir.join("restart.toml")).unwrap();
+        assert!(cfg.policy(NodeKind::Lidar).max_restarts >= 1);
+        let text = "[default]\nmax_restarts = 1\nwindow_s = 5.0\nheartbeat_timeout_s = 2.0\n[node.lidar]\nmax_restarts = 4\n";
+        let p = std::env::temp_dir().join(format!("aisle-restart-{}.toml", std::process::id()));
+        std::fs::write(&p, text).unwrap();
+        let cfg = RestartConfig::load(&p).unwrap();
+        assert_eq!(cfg.policy(NodeKind::Lidar).max_restarts, 4);
+        assert_eq!(cfg.policy(NodeKind::Mapper).max_restarts, 1);
+        std::fs::write(&p, text.replace("[node.lidar]", "[node.lidr]")).unwrap();
+        let e = RestartConfig::load(&p).unwrap_err().to_string();
+        assert!(e.contains("node.lidr"), "{e}");
+        let _ = std::fs::remove_file(&p);
+    }
+}

@@ -1,0 +1,218 @@
+//! One controller step in the three situations of the issue: a free corridor, an unseen
+//! pallet straight ahead, and carrying the rack (0.88 x 0.8 m, margin 0.4 m) through a
+//! 2.5 m aisle. Target: p50 <= 2 ms, p99 <= 5 ms on one core.
+//!
+//! "warm" is the node's steady state: the band of the previous period (restored from a
+//! snapshot taken after two closed-loop periods) and the robot where that band said it
+//! would be 0.5 s later. "cold" is the first step of a goal (band built from scratch).
+//! Besides criterion's figures, the p50 / p99 over a fixed number of steps, the SCP
+//! iterations and the largest constraint violation are printed.
+
+use aisle_geometry::{
+    CellIndex, Direction, Footprint, GridMap, OCCUPIED_DETECTED, PathPose, Pose2,
+};
+use aisle_teb_controller::{Goal, Mode, Snapshot, StepOutput, TebConfig, TebController};
+use criterion::{Criterion, criterion_group, criterion_main};
+use std::hint::black_box;
+use std::time::Instant;
+
+const RES: f64 = 0.1;
+const PERIOD: f64 = 0.5;
+
+struct Situation {
+    name: &'static str,
+    footprint: Footprint,
+    margin: f64,
+    boxes: Vec<[f64; 4]>,
+    homotopy: bool,
+}
+
+fn situations() -> Vec<Situation> {
+    let walls = |half: f64| {
+        vec![
+            [-10.0, half, 30.0, half + 0.3],
+            [-10.0, -half - 0.3, 30.0, -half],
+        ]
+    };
+    let mut pallet = walls(1.5);
+    pallet.push([3.5, -0.5, 4.7, 0.3]);
+    vec![
+        Situation {
+            name: "free_corridor",
+            footprint: Footprint::new(0.508, 0.43),
+            margin: 0.1,
+            boxes: walls(1.5),
+            homotopy: false,
+        },
+        Situation {
+            name: "pallet_ahead",
+            footprint: Footprint::new(0.508, 0.43),
+            margin: 0.1,
+            boxes: pallet.clone(),
+            homotopy: false,
+        },
+        Situation {
+            name: "pallet_ahead_homotopy",
+            footprint: Footprint::new(0.508, 0.43),
+            margin: 0.1,
+            boxes: pallet,
+            homotopy: true,
+        },
+        Situation {
+            name: "rack_2.5m_aisle",
+            footprint: Footprint::new(0.88, 0.8),
+            margin: 0.4,
+            boxes: walls(1.25),
+            homotopy: false,
+        },
+    ]
+}
+
+/// The node's local map: 15 x 15 m at 10 cells/m centred on the robot.
+fn local_map(robot: &Pose2, boxes: &[[f64; 4]]) -> GridMap {
+    let ox = ((robot.x - 7.5) / RES).round() * RES;
+    let oy = ((robot.y - 7.5) / RES).round() * RES;
+    let mut g = GridMap::new_free(ox, oy, RES, 15.0, 15.0).expect("valid grid");
+    for b in boxes {
+        let lo = g.view().cell_of(b[0], b[1]);
+        let hi = g.view().cell_of(b[2], b[3]);
+        for iy in lo.iy..=hi.iy {
+            for ix in lo.ix..=hi.ix {
+                let c = CellIndex { ix, iy };
+                if g.view().contains_cell(c) {
+                    let (cx, cy) = g.view().cell_center(c);
+                    if cx >= b[0] && cx <= b[2] && cy >= b[1] && cy <= b[3] {
+                        g.set(c, OCCUPIED_DETECTED);
+                    }
+                }
+            }
+        }
+    }
+    g
+}
+
+fn goal(s: &Situation) -> Goal {
+    Goal {
+        reference: (0..=200)
+            .map(|i| PathPose::new(Pose2::new(0.1 * i as f64, 0.0, 0.0), Direction::Forward))
+            .collect(),
+        footprint: s.footprint,
+        margin: s.margin,
+        mode: Mode::Follow,
+    }
+}
+
+/// Where the output says the robot is `dt` after its start (linear between poses).
+fn predicted(out: &StepOutput, dt: f64) -> (Pose2, f64) {
+    let t = out.t0 + dt;
+    let k = out
+        .poses
+        .partition_point(|p| p.t <= t)
+        .clamp(1, out.poses.len() - 1);
+    let (a, b) = (out.poses[k - 1], out.poses[k]);
+    let u = ((t - a.t) / (b.t - a.t)).clamp(0.0, 1.0);
+    let p = Pose2::new(
+        a.pose.x + u * (b.pose.x - a.pose.x),
+        a.pose.y + u * (b.pose.y - a.pose.y),
+        a.pose.theta + u * aisle_geometry::wrap_angle(b.pose.theta - a.pose.theta),
+    );
+    (p, out.command_at(t).0)
+}
+
+fn config(s: &Situation) -> TebConfig {
+    let mut cfg = TebConfig::default();
+    cfg.homotopy.enabled = s.homotopy;
+    cfg
+}
+
+fn percentile(sorted: &[f64], q: f64) -> f64 {
+    sorted[((sorted.len() as f64 - 1.0) * q).round() as usize]
+}
+
+fn steps(c: &mut Criterion) {
+    let mut group = c.benchmark_group("teb_step");
+    for s in situations() {
+        let g = goal(&s);
+        let start = Pose2::new(0.0, 0.0, 0.0);
+        let start_map = local_map(&start, &s.boxes);
+        // Two closed-loop periods, then the warm state.
+        let mut teb = TebController::new(config(&s)).expect("valid config");
+        teb.set_goal(&g).expect("valid goal");
+        let (mut pose, mut v, mut t) = (start, 0.0, 0.0);
+        for _ in 0..2 {
+            let out = teb
+                .step(pose, (v, 0.0), t, &local_map(&pose, &s.boxes).view())
+                .expect("step");
+            (pose, v) = predicted(out, PERIOD);
+            t += PERIOD;
+        }
+        let snap: Snapshot = teb.snapshot();
+        let map = local_map(&pose, &s.boxes);
+        let view = map.view();
+
+        let out = {
+            teb.restore(&snap).expect("restore");
+            teb.step(pose, (v, 0.0), t, &view).expect("step").clone()
+        };
+        let cold = {
+            let mut fresh = TebController::new(config(&s)).expect("valid config");
+            fresh.set_goal(&g).expect("valid goal");
+            fresh
+                .step(start, (0.0, 0.0), 0.0, &start_map.view())
+                .expect("step")
+                .clone()
+        };
+        println!(
+            "{}: warm: flag {}, {} poses, {} iterations, max violation {:.2e}, cost {:.3}; \
+             cold: flag {}, {} iterations, max violation {:.2e}",
+            s.name,
+            out.exit_flag.code(),
+            out.poses.len(),
+            out.iterations,
+            out.max_violation,
+            out.cost,
+            cold.exit_flag.code(),
+            cold.iterations,
+            cold.max_violation
+        );
+        // Percentiles over a fixed number of identical warm steps.
+        let mut times = Vec::with_capacity(300);
+        for _ in 0..300 {
+            teb.restore(&snap).expect("restore");
+            let t0 = Instant::now();
+            black_box(teb.step(pose, (v, 0.0), t, &view).expect("step").exit_flag);
+            times.push(t0.elapsed().as_secs_f64() * 1e3);
+        }
+        times.sort_by(f64::total_cmp);
+        println!(
+            "{}: warm step p50 {:.3} ms, p99 {:.3} ms (300 steps)",
+            s.name,
+            percentile(&times, 0.5),
+            percentile(&times, 0.99)
+        );
+
+        group.bench_function(format!("warm/{}", s.name), |b| {
+            b.iter(|| {
+                teb.restore(&snap).expect("restore");
+                black_box(teb.step(pose, (v, 0.0), t, &view).expect("step").exit_flag)
+            })
+        });
+        let mut fresh = TebController::new(config(&s)).expect("valid config");
+        group.bench_function(format!("cold/{}", s.name), |b| {
+            b.iter(|| {
+                fresh.clear_goal();
+                fresh.set_goal(&g).expect("valid goal");
+                black_box(
+                    fresh
+                        .step(start, (0.0, 0.0), 0.0, &start_map.view())
+                        .expect("step")
+                        .exit_flag,
+                )
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, steps);
+criterion_main!(benches);

@@ -1,0 +1,177 @@
+//! Moving band poses that sit in obstacles sideways until they are clear, before the
+//! optimiser runs. Linearised clearances are only informative outside obstacles (from
+//! inside a pallet every cell pulls another way), so a reference path through an unseen
+//! pallet is first bent around it on one side; the side is the homotopy class.
+//!
+//! Knows nothing of time or of the optimiser.
+
+use aisle_geometry::{Footprint, GridView, Pose2};
+
+use crate::band::Band;
+use crate::clearance::min_clearance;
+
+/// Which way blocked poses are pushed, seen along the band's heading.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Side {
+    Left,
+    Right,
+}
+
+impl Side {
+    fn sign(self) -> f64 {
+        match self {
+            Side::Left => 1.0,
+            Side::Right => -1.0,
+        }
+    }
+
+    pub fn other(self) -> Side {
+        match self {
+            Side::Left => Side::Right,
+            Side::Right => Side::Left,
+        }
+    }
+}
+
+const OFFSET_STEP: f64 = 0.05;
+
+fn shifted(p: &Pose2, d: f64) -> Pose2 {
+    let (s, c) = p.theta.sin_cos();
+    Pose2::new(p.x - s * d, p.y + c * d, p.theta)
+}
+
+/// Smallest sideways offset (multiples of 0.05 m up to `max_offset`) that clears pose
+/// `p` by `margin`, pushed towards `side`.
+fn clearing_offset(
+    map: &GridView,
+    fp: &Footprint,
+    margin: f64,
+    p: &Pose2,
+    side: Side,
+    max_offset: f64,
+) -> Option<f64> {
+    let mut d = OFFSET_STEP;
+    while d <= max_offset + 1e-9 {
+        let q = shifted(p, side.sign() * d);
+        if min_clearance(map, fp, &q, margin) >= margin {
+            return Some(d);
+        }
+        d += OFFSET_STEP;
+    }
+    None
+}
+
+/// Whether any pose but the first violates the margin.
+pub(crate) fn blocked(band: &Band, map: &GridView, fp: &Footprint, margin: f64) -> bool {
+    band.poses[1..]
+        .iter()
+        .any(|p| min_clearance(map, fp, p, margin) < margin)
+}
+
+/// Pushes every run of blocked poses (the first pose never moves) sideways. With
+/// `side = None` each run goes the way that needs the smaller offset (left on a tie);
+/// the side chosen for the first run is returned. Runs that cannot be cleared within
+/// `max_offset` stay where they are.
+pub(crate) fn repair(
+    band: &mut Band,
+    map: &GridView,
+    fp: &Footprint,
+    margin: f64,
+    side: Option<Side>,
+    max_offset: f64,
+) -> Option<Side> {
+    let n = band.poses.len();
+    let mut chosen = None;
+    let mut i = 1;
+    while i < n {
+        if min_clearance(map, fp, &band.poses[i], margin) >= margin {
+            i += 1;
+            continue;
+        }
+        let mut j = i;
+        while j + 1 < n && min_clearance(map, fp, &band.poses[j + 1], margin) < margin {
+            j += 1;
+        }
+        // Offset of the run for one side: the largest any of its poses needs.
+        let run_offset = |s: Side| -> Option<f64> {
+            let mut worst: f64 = 0.0;
+            for p in &band.poses[i..=j] {
+                worst = worst.max(clearing_offset(map, fp, margin, p, s, max_offset)?);
+            }
+            Some(worst)
+        };
+        let pick = match side {
+            Some(s) => run_offset(s).map(|d| (s, d)),
+            None => match (run_offset(Side::Left), run_offset(Side::Right)) {
+                (Some(l), Some(r)) => Some(if r < l - 1e-9 {
+                    (Side::Right, r)
+                } else {
+                    (Side::Left, l)
+                }),
+                (Some(l), None) => Some((Side::Left, l)),
+                (None, Some(r)) => Some((Side::Right, r)),
+                (None, None) => None,
+            },
+        };
+        if let Some((s, d)) = pick {
+            chosen.get_or_insert(s);
+            for k in i..=j {
+                let q = shifted(&band.poses[k], s.sign() * d);
+                band.poses[k] = if min_clearance(map, fp, &q, margin) >= margin {
+                    q
+                } else {
+                    // The run's offset does not clear this pose; use its own.
+                    clearing_offset(map, fp, margin, &band.poses[k], s, max_offset)
+                        .map_or(band.poses[k], |dk| shifted(&band.poses[k], s.sign() * dk))
+                };
+            }
+        }
+        i = j + 1;
+    }
+    chosen
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use aisle_geometry::{GridMap, OCCUPIED_DETECTED};
+
+    #[test]
+    fn a_band_through_a_pallet_is_pushed_to_the_cheaper_side() {
+        let mut g = GridMap::new_free(-5.0, -5.0, 0.1, 10.0, 10.0).unwrap();
+        // Pallet 1.2 x 0.8 centred at (2, 0.1): slightly left of the band, so the
+        // right side is cheaper.
+        for ix in 0..12 {
+            for iy in 0..8 {
+                let c = g.view().cell_of(
+                    1.4 + 0.1 * ix as f64 + 0.05,
+                    -0.3 + 0.1 + 0.1 * iy as f64 + 0.05,
+                );
+                g.set(c, OCCUPIED_DETECTED);
+            }
+        }
+        let mut band = Band {
+            poses: (0..9)
+                .map(|i| Pose2::new(0.5 * i as f64, 0.0, 0.0))
+                .collect(),
+            dts: vec![0.3; 8],
+        };
+        let fp = Footprint::new(0.508, 0.43);
+        assert!(blocked(&band, &g.view(), &fp, 0.1));
+        let side = repair(&mut band, &g.view(), &fp, 0.1, None, 3.0);
+        assert_eq!(side, Some(Side::Right));
+        assert!(!blocked(&band, &g.view(), &fp, 0.1));
+        assert_eq!(band.poses[0], Pose2::new(0.0, 0.0, 0.0));
+        let mut left = Band {
+            poses: (0..9)
+                .map(|i| Pose2::new(0.5 * i as f64, 0.0, 0.0))
+                .collect(),
+            dts: vec![0.3; 8],
+        };
+        assert_eq!(
+            repair(&mut left, &g.view(), &fp, 0.1, Some(Side::Left), 3.0),
+            Some(Side::Left)
+        );
+        assert!(left.poses[4].y > 0.5);
+    }
+}

@@ -1,0 +1,184 @@
+//! The reference path cut into sections of one drive direction, with projection and
+//! interpolation by arc length.
+//!
+//! A section ends at a cusp (forward <-> reverse), at the start or end of an in-place
+//! rotation, or at the path's end; the band never spans two sections, because the
+//! robot must stop at each of those points. Knows nothing of obstacles or of time.
+
+use aisle_geometry::{Direction, PathPose, Pose2, wrap_angle};
+
+/// Poses `first..=last` of the path, driven in one direction.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Section {
+    pub first: usize,
+    pub last: usize,
+    pub direction: Direction,
+}
+
+/// Closest point of a section to a query position.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Projection {
+    /// Arc length from the path's start, m.
+    pub s: f64,
+    pub distance: f64,
+    pub x: f64,
+    pub y: f64,
+    /// Unit tangent of the polyline there (zero on a degenerate section).
+    pub tx: f64,
+    pub ty: f64,
+}
+
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Reference {
+    pub poses: Vec<PathPose>,
+    /// Arc length at each pose, m.
+    pub cum: Vec<f64>,
+    pub sections: Vec<Section>,
+}
+
+impl Reference {
+    /// Builds the sections. The direction of the step from pose j to j+1 is the one
+    /// stored on pose j+1 (how the planner reached it).
+    pub fn new(poses: Vec<PathPose>) -> Reference {
+        let mut cum = Vec::with_capacity(poses.len());
+        let mut s = 0.0;
+        for (j, p) in poses.iter().enumerate() {
+            if j > 0 {
+                s += poses[j - 1].pose.distance(&p.pose);
+            }
+            cum.push(s);
+        }
+        let mut sections = Vec::new();
+        if poses.len() == 1 {
+            sections.push(Section {
+                first: 0,
+                last: 0,
+                direction: Direction::Forward,
+            });
+        }
+        let mut j = 0;
+        while j + 1 < poses.len() {
+            let dir = poses[j + 1].direction;
+            let mut k = j + 1;
+            while k + 1 < poses.len() && poses[k + 1].direction == dir {
+                k += 1;
+            }
+            sections.push(Section {
+                first: j,
+                last: k,
+                direction: dir,
+            });
+            j = k;
+        }
+        Reference {
+            poses,
+            cum,
+            sections,
+        }
+    }
+
+    /// End pose of a section.
+    pub fn section_end(&self, sec: &Section) -> Pose2 {
+        self.poses[sec.last].pose
+    }
+
+    /// Closest point of the section's polyline to (x, y), among segments that overlap
+    /// the arc-length window [s_lo, s_hi] (so a path that loops back near itself does
+    /// not make the robot jump ahead).
+    pub fn project(&self, sec: &Section, x: f64, y: f64, s_lo: f64, s_hi: f64) -> Projection {
+        let p0 = self.poses[sec.first].pose;
+        let mut best = Projection {
+            s: self.cum[sec.first],
+            distance: (x - p0.x).hypot(y - p0.y),
+            x: p0.x,
+            y: p0.y,
+            tx: 0.0,
+            ty: 0.0,
+        };
+        let mut best_tangent_set = false;
+        for j in sec.first..sec.last {
+            if self.cum[j + 1] < s_lo || self.cum[j] > s_hi {
+                continue;
+            }
+            let a = self.poses[j].pose;
+            let b = self.poses[j + 1].pose;
+            let (dx, dy) = (b.x - a.x, b.y - a.y);
+            let len2 = dx * dx + dy * dy;
+            let u = if len2 > 1e-18 {
+                (((x - a.x) * dx + (y - a.y) * dy) / len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let (px, py) = (a.x + u * dx, a.y + u * dy);
+            let d = (x - px).hypot(y - py);
+            let len = len2.sqrt();
+            if d < best.distance - 1e-12 || (!best_tangent_set && d <= best.distance + 1e-12) {
+                best = Projection {
+                    s: self.cum[j] + u * len,
+                    distance: d,
+                    x: px,
+                    y: py,
+                    tx: if len > 1e-9 { dx / len } else { 0.0 },
+                    ty: if len > 1e-9 { dy / len } else { 0.0 },
+                };
+                best_tangent_set = len > 1e-9;
+            }
+        }
+        best
+    }
+
+    /// Pose at arc length `s` (clamped to the section), heading interpolated the short
+    /// way round.
+    pub fn sample(&self, sec: &Section, s: f64) -> Pose2 {
+        let s = s.clamp(self.cum[sec.first], self.cum[sec.last]);
+        let mut j = sec.first;
+        while j < sec.last && self.cum[j + 1] < s {
+            j += 1;
+        }
+        if j >= sec.last {
+            return self.poses[sec.last].pose;
+        }
+        let a = self.poses[j].pose;
+        let b = self.poses[j + 1].pose;
+        let len = self.cum[j + 1] - self.cum[j];
+        let u = if len > 1e-12 {
+            (s - self.cum[j]) / len
+        } else {
+            1.0
+        };
+        Pose2::new(
+            a.x + u * (b.x - a.x),
+            a.y + u * (b.y - a.y),
+            wrap_angle(a.theta + u * wrap_angle(b.theta - a.theta)),
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pp(x: f64, y: f64, t: f64, d: Direction) -> PathPose {
+        PathPose::new(Pose2::new(x, y, t), d)
+    }
+
+    #[test]
+    fn sections_split_at_cusps_and_rotations() {
+        let r = Reference::new(vec![
+            pp(0.0, 0.0, 0.0, Direction::Forward),
+            pp(1.0, 0.0, 0.0, Direction::Forward),
+            pp(2.0, 0.0, 0.0, Direction::Forward),
+            pp(1.0, 0.0, 0.0, Direction::Reverse),
+            pp(1.0, 0.0, 1.0, Direction::Rotate),
+            pp(1.0, 0.0, 2.0, Direction::Rotate),
+        ]);
+        assert_eq!(r.sections.len(), 3);
+        assert_eq!((r.sections[0].first, r.sections[0].last), (0, 2));
+        assert_eq!(r.sections[1].direction, Direction::Reverse);
+        assert_eq!((r.sections[2].first, r.sections[2].last), (3, 5));
+        let p = r.project(&r.sections[0], 1.5, 0.3, 0.0, 10.0);
+        assert!((p.s - 1.5).abs() < 1e-12 && (p.distance - 0.3).abs() < 1e-12);
+        let q = r.sample(&r.sections[0], 0.25);
+        assert!((q.x - 0.25).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,519 @@
+//! Library-level tests of the whole controller: closed loops on synthetic corridors
+//! (commands integrated with unicycle kinematics between steps, as the node and the
+//! simulator will do), limits, goal tolerance, boxed-in robots, determinism and the warm
+//! restart from a snapshot.
+
+use aisle_geometry::{
+    Direction, Footprint, GridMap, OCCUPIED_DETECTED, PathPose, Pose2, wrap_angle,
+};
+
+use crate::{ExitFlag, Goal, Mode, Snapshot, StepOutput, TebConfig, TebController, TebError};
+
+const ROBOT: Footprint = Footprint::new(0.508, 0.43);
+const RACK: Footprint = Footprint::new(0.88, 0.8);
+/// Controller period and look-ahead of the seed.
+const PERIOD: f64 = 0.5;
+const RES: f64 = 0.1;
+
+/// Axis-aligned obstacles in world coordinates: (x_min, y_min, x_max, y_max).
+type Boxes = Vec<[f64; 4]>;
+
+/// The node's local map: 15 x 15 m at 10 cells/m centred on the robot, a cell occupied
+/// when its centre lies in a box (the cell squares are the true obstacle geometry).
+fn local_map(robot: &Pose2, boxes: &Boxes) -> GridMap {
+    let ox = ((robot.x - 7.5) / RES).round() * RES;
+    let oy = ((robot.y - 7.5) / RES).round() * RES;
+    let mut g = GridMap::new_free(ox, oy, RES, 15.0, 15.0).unwrap();
+    for b in boxes {
+        let lo = g.view().cell_of(b[0], b[1]);
+        let hi = g.view().cell_of(b[2], b[3]);
+        for iy in lo.iy..=hi.iy {
+            for ix in lo.ix..=hi.ix {
+                let c = aisle_geometry::CellIndex { ix, iy };
+                if !g.view().contains_cell(c) {
+                    continue;
+                }
+                let (cx, cy) = g.view().cell_center(c);
+                if cx >= b[0] && cx <= b[2] && cy >= b[1] && cy <= b[3] {
+                    g.set(c, OCCUPIED_DETECTED);
+                }
+            }
+        }
+    }
+    g
+}
+
+/// Exact clearance between the footprint and the occupied cell squares of `g` (the
+/// closest points of two disjoint convex polygons include a vertex of one of them).
+fn true_clearance(g: &GridMap, fp: &Footprint, at: &Pose2) -> f64 {
+    let v = g.view();
+    let h = 0.5 * RES;
+    let corners = fp.corners(at);
+    let mut best = f64::INFINITY;
+    for iy in 0..v.height {
+        for ix in 0..v.width {
+            if v.cells[iy * v.width + ix] == 0 {
+                continue;
+            }
+            let (cx, cy) = v.cell_center(aisle_geometry::CellIndex {
+                ix: ix as i64,
+                iy: iy as i64,
+            });
+            if (cx - at.x).hypot(cy - at.y) > fp.circumscribed_radius() + 1.0 {
+                continue;
+            }
+            for (sx, sy) in [(-h, -h), (h, -h), (h, h), (-h, h)] {
+                best = best.min(fp.signed_distance(at, cx + sx, cy + sy));
+            }
+            for (px, py) in corners.iter().copied().chain([(at.x, at.y)]) {
+                let dx = ((px - cx).abs() - h).max(0.0);
+                let dy = ((py - cy).abs() - h).max(0.0);
+                let d = dx.hypot(dy);
+                // A footprint point inside the square is a collision.
+                best = best.min(if d == 0.0 { -1.0 } else { d });
+            }
+        }
+    }
+    best
+}
+
+fn straight_path(x0: f64, x1: f64, y: f64) -> Vec<PathPose> {
+    let n = ((x1 - x0) / 0.1).round() as usize;
+    (0..=n)
+        .map(|i| {
+            PathPose::new(
+                Pose2::new(x0 + (x1 - x0) * i as f64 / n as f64, y, 0.0),
+                Direction::Forward,
+            )
+        })
+        .collect()
+}
+
+fn follow(reference: Vec<PathPose>, footprint: Footprint, margin: f64) -> Goal {
+    Goal {
+        reference,
+        footprint,
+        margin,
+        mode: Mode::Follow,
+    }
+}
+
+/// Exact unicycle motion for constant (v, w) over `dt`.
+fn unicycle(p: &Pose2, v: f64, w: f64, dt: f64) -> Pose2 {
+    if w.abs() < 1e-9 {
+        let (s, c) = p.theta.sin_cos();
+        Pose2::new(p.x + v * dt * c, p.y + v * dt * s, p.theta)
+    } else {
+        let th = p.theta + w * dt;
+        let r = v / w;
+        Pose2::new(
+            p.x + r * (th.sin() - p.theta.sin()),
+            p.y - r * (th.cos() - p.theta.cos()),
+            wrap_angle(th),
+        )
+    }
+}
+
+fn no_nan(out: &StepOutput) {
+    assert!(
+        out.cost.is_finite() || out.commands.len() == 1,
+        "cost {}",
+        out.cost
+    );
+    for c in &out.commands {
+        assert!(
+            c.t.is_finite() && c.v.is_finite() && c.w.is_finite(),
+            "{c:?}"
+        );
+    }
+    for p in &out.poses {
+        assert!(p.t.is_finite() && p.pose.is_finite(), "{p:?}");
+    }
+    assert!(out.commands.len() <= crate::MAX_COMMANDS);
+    for w in out.commands.windows(2) {
+        assert!(
+            w[1].t > w[0].t,
+            "timestamps not increasing: {:?}",
+            out.commands
+        );
+    }
+}
+
+struct Run {
+    reached: bool,
+    steps: usize,
+    min_clearance: f64,
+    final_pose: Pose2,
+    flags: Vec<u8>,
+}
+
+/// Closes the loop: step, drive the timeline for one period with unicycle kinematics
+/// (checking the true clearance every 10 ms), step again.
+fn drive(goal: &Goal, boxes: &Boxes, start: Pose2, max_steps: usize) -> Run {
+    drive_with(TebConfig::default(), goal, boxes, start, max_steps)
+}
+
+fn drive_with(cfg: TebConfig, goal: &Goal, boxes: &Boxes, start: Pose2, max_steps: usize) -> Run {
+    let lim = cfg.limits.clone();
+    let mut teb = TebController::new(cfg).unwrap();
+    teb.set_goal(goal).unwrap();
+    let mut pose = start;
+    let (mut v, mut w) = (0.0, 0.0);
+    let mut t = 0.0;
+    let mut run = Run {
+        reached: false,
+        steps: 0,
+        min_clearance: f64::INFINITY,
+        final_pose: start,
+        flags: Vec::new(),
+    };
+    let sub = 0.01;
+    for _ in 0..max_steps {
+        let map = local_map(&pose, boxes);
+        let out = teb.step(pose, (v, w), t, &map.view()).unwrap();
+        no_nan(out);
+        run.steps += 1;
+        run.flags.push(out.exit_flag.code());
+        if out.reached_goal {
+            run.reached = true;
+            break;
+        }
+        assert_eq!(out.commands[0].t, t);
+        let commands = out.commands.clone();
+        for k in 0..(PERIOD / sub).round() as usize {
+            let tk = t + k as f64 * sub;
+            let (cv, cw) = crate::command_at(&commands, tk + 1e-9);
+            assert!(
+                cv.abs() <= lim.max_velocity + 1e-6 && cw.abs() <= lim.max_angular_velocity + 1e-6,
+                "({cv}, {cw})"
+            );
+            pose = unicycle(&pose, cv, cw, sub);
+            v = cv;
+            w = cw;
+            run.min_clearance = run
+                .min_clearance
+                .min(true_clearance(&map, &goal.footprint, &pose));
+        }
+        t += PERIOD;
+    }
+    run.final_pose = pose;
+    run
+}
+
+#[test]
+fn closed_loop_passes_a_box_on_the_path_and_keeps_the_margin() {
+    // 10 m straight path, a 0.6 x 0.6 m box across it at x = 5.
+    let boxes: Boxes = vec![[4.7, -0.3, 5.3, 0.3]];
+    let goal = follow(straight_path(0.0, 10.0, 0.0), ROBOT, 0.1);
+    let run = drive(&goal, &boxes, Pose2::new(0.0, 0.0, 0.0), 80);
+    assert!(
+        run.reached,
+        "not reached after {} steps, at {:?}, flags {:?}",
+        run.steps, run.final_pose, run.flags
+    );
+    assert!(
+        run.min_clearance >= 0.1,
+        "clearance {} below the 0.1 m margin",
+        run.min_clearance
+    );
+    let g = Pose2::new(10.0, 0.0, 0.0);
+    assert!(run.final_pose.distance(&g) < 0.3, "{:?}", run.final_pose);
+}
+
+#[test]
+fn closed_loop_with_homotopy_alternatives_passes_a_pallet() {
+    let mut cfg = TebConfig::default();
+    cfg.homotopy.enabled = true;
+    let boxes: Boxes = vec![[4.4, -0.5, 5.6, 0.3]];
+    let goal = follow(straight_path(0.0, 10.0, 0.0), ROBOT, 0.1);
+    let run = drive_with(cfg, &goal, &boxes, Pose2::new(0.0, 0.0, 0.0), 80);
+    assert!(
+        run.reached,
+        "not reached after {} steps, at {:?}, flags {:?}",
+        run.steps, run.final_pose, run.flags
+    );
+    assert!(run.min_clearance >= 0.1, "clearance {}", run.min_clearance);
+}
+
+#[test]
+fn closed_loop_carries_the_rack_through_an_aisle_with_a_pallet() {
+    // 2.5 m aisle (walls at y = +-1.25, 0.3 m thick), a pallet on one side at x = 6
+    // leaving 1.8 m, where the rack and its margins need 1.6 m.
+    let boxes: Boxes = vec![
+        [-5.0, 1.25, 20.0, 1.55],
+        [-5.0, -1.55, 20.0, -1.25],
+        [5.6, 0.55, 6.4, 1.25],
+    ];
+    let goal = follow(straight_path(0.0, 10.0, 0.0), RACK, 0.4);
+    let run = drive(&goal, &boxes, Pose2::new(0.0, 0.0, 0.0), 80);
+    assert!(
+        run.reached,
+        "not reached after {} steps, at {:?}, flags {:?}",
+        run.steps, run.final_pose, run.flags
+    );
+    assert!(
+        run.min_clearance >= 0.4 * 0.9,
+        "clearance {}",
+        run.min_clearance
+    );
+}
+
+#[test]
+fn single_step_goes_around_a_pallet_within_the_limits() {
+    let cfg = TebConfig::default();
+    let mut teb = TebController::new(cfg.clone()).unwrap();
+    teb.set_goal(&follow(straight_path(0.0, 10.0, 0.0), ROBOT, 0.1))
+        .unwrap();
+    let boxes: Boxes = vec![[3.0, -0.6, 4.2, 0.4]];
+    let robot = Pose2::new(0.0, 0.0, 0.0);
+    let map = local_map(&robot, &boxes);
+    let out = teb
+        .step(robot, (1.0, 0.0), 12.0, &map.view())
+        .unwrap()
+        .clone();
+    no_nan(&out);
+    assert_eq!(out.exit_flag, ExitFlag::Valid, "{out:?}");
+    assert!(out.max_violation < 1e-2, "violation {}", out.max_violation);
+    // Goes around: a pose beside the pallet is off the path by more than its half-width.
+    let beside = out
+        .poses
+        .iter()
+        .filter(|p| p.pose.x > 3.0 && p.pose.x < 4.2)
+        .map(|p| p.pose.y.abs())
+        .fold(0.0, f64::max);
+    assert!(beside > 0.5, "{:?}", out.poses);
+    for p in &out.poses {
+        assert!(true_clearance(&map, &ROBOT, &p.pose) >= 0.1 * 0.9, "{p:?}");
+    }
+    // Velocity and acceleration limits (the first from the measured 1 m/s).
+    let lim = &cfg.limits;
+    let mut prev = (1.0, 0.0, 12.0);
+    for (i, c) in out.commands.iter().enumerate() {
+        assert!(c.v.abs() <= lim.max_velocity + 1e-6, "{c:?}");
+        assert!(c.w.abs() <= lim.max_angular_velocity + 1e-6, "{c:?}");
+        if i + 1 < out.commands.len() {
+            let dt = out.commands[i + 1].t - c.t;
+            // Acceleration between consecutive segments over the mean of their spans.
+            let span = if i == 0 {
+                dt
+            } else {
+                0.5 * (dt + (c.t - prev.2))
+            };
+            assert!(
+                (c.v - prev.0).abs() / span <= lim.max_acceleration * 1.05 + 1e-2,
+                "a at {i}: {c:?} after {prev:?}"
+            );
+            assert!(
+                (c.w - prev.1).abs() / span <= lim.max_angular_acceleration * 1.05 + 1e-2,
+                "alpha at {i}"
+            );
+            prev = (c.v, c.w, c.t);
+        }
+    }
+    assert_eq!(out.commands[0].t, 12.0);
+    assert_eq!(out.poses[0].t, 12.0);
+}
+
+#[test]
+fn reached_goal_exactly_inside_the_tolerance() {
+    let goal = follow(straight_path(0.0, 3.0, 0.0), ROBOT, 0.1);
+    let map = local_map(&Pose2::new(3.0, 0.0, 0.0), &vec![]);
+    let cases = [
+        (Pose2::new(3.19, 0.0, 0.0), true),
+        (Pose2::new(2.81, 0.19, 0.19), true),
+        (Pose2::new(3.0, -0.19, -0.19), true),
+        (Pose2::new(3.21, 0.0, 0.0), false),
+        (Pose2::new(3.0, 0.21, 0.0), false),
+        (Pose2::new(3.0, 0.0, 0.21), false),
+    ];
+    for (pose, inside) in cases {
+        let mut teb = TebController::new(TebConfig::default()).unwrap();
+        teb.set_goal(&goal).unwrap();
+        let out = teb.step(pose, (0.0, 0.0), 0.0, &map.view()).unwrap();
+        no_nan(out);
+        assert_eq!(out.reached_goal, inside, "{pose:?}");
+        if inside {
+            assert_eq!(out.command_at(0.0), (0.0, 0.0));
+        }
+    }
+}
+
+#[test]
+fn boxed_in_robot_stops_with_a_flag() {
+    // Walls 0.1 m from every side of the robot.
+    let boxes: Boxes = vec![
+        [-1.0, 0.32, 1.0, 1.0],
+        [-1.0, -1.0, 1.0, -0.32],
+        [0.36, -1.0, 1.0, 1.0],
+        [-1.0, -1.0, -0.36, 1.0],
+    ];
+    let robot = Pose2::new(0.0, 0.0, 0.0);
+    let map = local_map(&robot, &boxes);
+    let mut teb = TebController::new(TebConfig::default()).unwrap();
+    teb.set_goal(&follow(straight_path(0.0, 10.0, 0.0), ROBOT, 0.1))
+        .unwrap();
+    for k in 0..3 {
+        let out = teb
+            .step(robot, (0.0, 0.0), k as f64 * PERIOD, &map.view())
+            .unwrap();
+        no_nan(out);
+        assert_ne!(out.exit_flag, ExitFlag::Valid, "{out:?}");
+        assert!(out.exit_flag.stops_robot(), "{:?}", out.exit_flag);
+        assert_eq!(out.commands.len(), 1);
+        assert_eq!(out.command_at(k as f64 * PERIOD + 0.3), (0.0, 0.0));
+    }
+    // A robot already touching an obstacle: collision.
+    let boxes: Boxes = vec![[0.1, -0.1, 0.5, 0.1]];
+    let map = local_map(&robot, &boxes);
+    let out = teb.step(robot, (0.0, 0.0), 5.0, &map.view()).unwrap();
+    assert_eq!(out.exit_flag, ExitFlag::Collision);
+    assert_eq!(out.commands.len(), 1);
+    assert_eq!(out.command_at(5.0), (0.0, 0.0));
+}
+
+#[test]
+fn bad_inputs_are_errors_not_panics() {
+    let map = local_map(&Pose2::new(0.0, 0.0, 0.0), &vec![]);
+    let mut teb = TebController::new(TebConfig::default()).unwrap();
+    assert_eq!(
+        teb.step(Pose2::new(0.0, 0.0, 0.0), (0.0, 0.0), 0.0, &map.view())
+            .unwrap_err(),
+        TebError::NoGoal
+    );
+    teb.set_goal(&follow(straight_path(0.0, 5.0, 0.0), ROBOT, 0.1))
+        .unwrap();
+    let p = Pose2::new(0.0, 0.0, 0.0);
+    assert!(
+        teb.step(Pose2::new(f64::NAN, 0.0, 0.0), (0.0, 0.0), 0.0, &map.view())
+            .is_err()
+    );
+    assert!(teb.step(p, (f64::INFINITY, 0.0), 0.0, &map.view()).is_err());
+    assert!(teb.step(p, (0.0, 0.0), f64::NAN, &map.view()).is_err());
+    let cells = [0u8; 3];
+    let bad = aisle_geometry::GridView {
+        origin_x: 0.0,
+        origin_y: 0.0,
+        resolution: 0.1,
+        width: 2,
+        height: 2,
+        cells: &cells,
+    };
+    assert!(teb.step(p, (0.0, 0.0), 0.0, &bad).is_err());
+    assert!(teb.set_goal(&follow(vec![], ROBOT, 0.1)).is_err());
+    assert!(
+        teb.set_goal(&follow(straight_path(0.0, 5.0, 0.0), ROBOT, f64::NAN))
+            .is_err()
+    );
+    assert!(
+        teb.set_goal(&follow(
+            straight_path(0.0, 5.0, 0.0),
+            Footprint::new(0.0, 0.4),
+            0.1
+        ))
+        .is_err()
+    );
+    // Far off the path: flag 5 and a zero command.
+    let out = teb
+        .step(Pose2::new(2.0, 8.0, 0.0), (0.0, 0.0), 1.0, &map.view())
+        .unwrap();
+    assert_eq!(out.exit_flag, ExitFlag::OffPath);
+    assert_eq!(out.exit_flag.code(), 5);
+    assert_eq!(out.command_at(1.2), (0.0, 0.0));
+}
+
+#[test]
+fn same_inputs_give_bitwise_identical_outputs() {
+    let boxes: Boxes = vec![[3.0, -0.5, 3.8, 0.3]];
+    let goal = follow(straight_path(0.0, 10.0, 0.0), ROBOT, 0.1);
+    let mut outs: Vec<Vec<StepOutput>> = Vec::new();
+    for _ in 0..2 {
+        let mut teb = TebController::new(TebConfig::default()).unwrap();
+        teb.set_goal(&goal).unwrap();
+        let mut seq = Vec::new();
+        let mut pose = Pose2::new(0.0, 0.0, 0.0);
+        for k in 0..4 {
+            let map = local_map(&pose, &boxes);
+            let out = teb
+                .step(pose, (0.5, 0.0), k as f64 * PERIOD, &map.view())
+                .unwrap()
+                .clone();
+            pose = out.poses[1].pose;
+            seq.push(out);
+        }
+        outs.push(seq);
+    }
+    assert_eq!(outs[0], outs[1]);
+}
+
+#[test]
+fn a_restarted_controller_continues_from_the_snapshot() {
+    let boxes: Boxes = vec![[3.0, -0.5, 3.8, 0.3]];
+    let goal = follow(straight_path(0.0, 10.0, 0.0), ROBOT, 0.1);
+    let mut a = TebController::new(TebConfig::default()).unwrap();
+    a.set_goal(&goal).unwrap();
+    let p0 = Pose2::new(0.0, 0.0, 0.0);
+    let out = a
+        .step(p0, (0.0, 0.0), 0.0, &local_map(&p0, &boxes).view())
+        .unwrap();
+    let p1 = out.poses[2].pose;
+    let v1 = out.commands[1].v;
+    let snap: Snapshot = a.snapshot();
+    assert!(!snap.band.is_empty());
+    let map1 = local_map(&p1, &boxes);
+    let expect = a.step(p1, (v1, 0.0), 0.5, &map1.view()).unwrap().clone();
+
+    let mut b = TebController::new(TebConfig::default()).unwrap();
+    assert_eq!(b.restore(&snap), Err(TebError::NoGoal));
+    b.set_goal(&goal).unwrap();
+    b.restore(&snap).unwrap();
+    let got = b.step(p1, (v1, 0.0), 0.5, &map1.view()).unwrap().clone();
+    assert_eq!(got, expect);
+
+    // A corrupted snapshot is refused.
+    let mut bad = snap.clone();
+    bad.band.dts[0] = -1.0;
+    assert!(b.restore(&bad).is_err());
+    bad = snap;
+    bad.band.dts.pop();
+    assert!(b.restore(&bad).is_err());
+}
+
+#[test]
+fn rotate_in_place_turns_to_the_heading_within_the_limits() {
+    let cfg = TebConfig::default();
+    let goal = Goal {
+        reference: vec![],
+        footprint: ROBOT,
+        margin: 0.1,
+        mode: Mode::RotateInPlace {
+            target_heading: 2.5,
+        },
+    };
+    let run = drive(&goal, &vec![], Pose2::new(1.0, 2.0, -0.5), 40);
+    assert!(run.reached, "{:?} flags {:?}", run.final_pose, run.flags);
+    assert!(wrap_angle(run.final_pose.theta - 2.5).abs() <= cfg.band.goal_tolerance[2] + 1e-9);
+    assert!(
+        run.final_pose.distance(&Pose2::new(1.0, 2.0, 0.0)) < 0.05,
+        "{:?}",
+        run.final_pose
+    );
+}
+
+#[test]
+fn a_path_with_a_cusp_is_driven_forward_then_in_reverse() {
+    let mut reference = straight_path(0.0, 3.0, 0.0);
+    for i in 1..=20 {
+        reference.push(PathPose::new(
+            Pose2::new(3.0 - 0.1 * i as f64, 0.0, 0.0),
+            Direction::Reverse,
+        ));
+    }
+    let goal = follow(reference, ROBOT, 0.1);
+    let run = drive(&goal, &vec![], Pose2::new(0.0, 0.0, 0.0), 60);
+    assert!(run.reached, "{:?} flags {:?}", run.final_pose, run.flags);
+    assert!(
+        run.final_pose.distance(&Pose2::new(1.0, 0.0, 0.0)) < 0.3,
+        "{:?}",
+        run.final_pose
+    );
+}

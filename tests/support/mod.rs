@@ -1,0 +1,200 @@
+//! Helpers for the system tests: run the real `aisle` binary in a private run directory
+//! (its iceoryx2 instance root lives there), find its children, and check that nothing
+//! of an instance is left behind.
+
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+pub fn aisle() -> &'static str {
+    env!("CARGO_BIN_EXE_aisle")
+}
+
+pub fn config_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../config")
+        .canonicalize()
+        .unwrap()
+}
+
+/// A fresh directory for one test (reports, missions) and a run directory for its
+/// instances, both removed on drop. The run directory is short and under /tmp whatever
+/// TMPDIR says: iceoryx2 limits the length of an instance's root path
+/// (`aisle_bus::MAX_ROOT_AND_PREFIX`).
+pub struct TestDir(pub PathBuf, PathBuf);
+
+static RUN_DIRS: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+
+impl TestDir {
+    pub fn new(name: &str) -> TestDir {
+        let dir = std::env::temp_dir().join(format!("aisle-test-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let k = RUN_DIRS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let run = PathBuf::from(format!("/tmp/aisle-t{}-{k}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&run);
+        std::fs::create_dir_all(&run).unwrap();
+        TestDir(dir, run)
+    }
+    pub fn path(&self, name: &str) -> PathBuf {
+        self.0.join(name)
+    }
+    pub fn run_dir(&self) -> PathBuf {
+        self.1.clone()
+    }
+}
+
+impl Drop for TestDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+        let _ = std::fs::remove_dir_all(&self.1);
+    }
+}
+
+/// `aisle <args>` with its instances under `run_dir`.
+pub fn command(run_dir: &Path, args: &[&str]) -> Command {
+    let mut c = Command::new(aisle());
+    c.args(args)
+        .env("AISLE_RUN_DIR", run_dir)
+        .env("AISLE_LOG", "warn")
+        .stdin(Stdio::null());
+    c
+}
+
+pub fn run(run_dir: &Path, args: &[&str]) -> Output {
+    command(run_dir, args).output().expect("aisle runs")
+}
+
+pub fn spawn(run_dir: &Path, args: &[&str]) -> Child {
+    command(run_dir, args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("aisle starts")
+}
+
+/// Pids of the direct children of `pid` (Linux /proc).
+pub fn children(pid: u32) -> Vec<u32> {
+    let mut out = Vec::new();
+    if let Ok(tasks) = std::fs::read_dir(format!("/proc/{pid}/task")) {
+        for t in tasks.flatten() {
+            if let Ok(s) = std::fs::read_to_string(t.path().join("children")) {
+                out.extend(s.split_whitespace().filter_map(|p| p.parse::<u32>().ok()));
+            }
+        }
+    }
+    out
+}
+
+/// The command line of a process, arguments joined by spaces.
+pub fn cmdline(pid: u32) -> String {
+    std::fs::read(format!("/proc/{pid}/cmdline"))
+        .map(|b| {
+            b.split(|&c| c == 0)
+                .map(|s| String::from_utf8_lossy(s).into_owned())
+                .collect::<Vec<_>>()
+                .join(" ")
+        })
+        .unwrap_or_default()
+}
+
+/// A process that exists and is not a zombie.
+pub fn alive(pid: u32) -> bool {
+    match std::fs::read_to_string(format!("/proc/{pid}/stat")) {
+        Ok(s) => !s
+            .rsplit(')')
+            .next()
+            .unwrap_or("")
+            .trim_start()
+            .starts_with('Z'),
+        Err(_) => false,
+    }
+}
+
+/// Waits until `aisle` (pid) has all five nodes running; returns node name -> pid.
+pub fn wait_for_nodes(pid: u32, timeout: Duration) -> Vec<(String, u32)> {
+    let start = Instant::now();
+    loop {
+        let nodes: Vec<(String, u32)> = children(pid)
+            .into_iter()
+            .filter_map(|c| {
+                let cl = cmdline(c);
+                let mut parts = cl.split(' ');
+                while let Some(p) = parts.next() {
+                    if p == "node" {
+                        return parts.next().map(|n| (n.to_string(), c));
+                    }
+                }
+                None
+            })
+            .collect();
+        if nodes.len() == 5 || start.elapsed() > timeout {
+            return nodes;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// Shared-memory files of instances started by supervisor `pid` (their prefix starts
+/// with `aisle<pid>x`).
+pub fn shm_leftovers(pid: u32) -> Vec<String> {
+    let prefix = format!("aisle{pid}x");
+    std::fs::read_dir("/dev/shm")
+        .map(|d| {
+            d.flatten()
+                .filter_map(|e| e.file_name().into_string().ok())
+                .filter(|n| n.contains(&prefix))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// Entries left in a run directory (instance roots).
+pub fn run_dir_leftovers(run_dir: &Path) -> Vec<PathBuf> {
+    std::fs::read_dir(run_dir)
+        .map(|d| d.flatten().map(|e| e.path()).collect())
+        .unwrap_or_default()
+}
+
+pub fn wait_exit(child: &mut Child, timeout: Duration) -> Option<std::process::ExitStatus> {
+    let start = Instant::now();
+    loop {
+        if let Ok(Some(s)) = child.try_wait() {
+            return Some(s);
+        }
+        if start.elapsed() > timeout {
+            return None;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// Writes a mission file: the seed's settings with other legs.
+pub fn mission_file(dir: &TestDir, name: &str, legs: &str) -> PathBuf {
+    let text = format!(
+        "start = [0.0, 0.0, 0.0]\nleg_timeout_s = 60.0\nmax_replans_per_leg = 12\nreplan_cooldown_steps = 2\n{legs}"
+    );
+    let p = dir.path(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// `aisle run --quiet --report <tmp> <args>` in a fresh test directory: its output and
+/// its report. Checks that the run left no instance behind.
+pub fn run_report(name: &str, args: &[&str]) -> (Output, aisle_supervisor::report::RunReport) {
+    let dir = TestDir::new(name);
+    let report = dir.path("report.json");
+    let mut all = vec!["run", "--quiet", "--report", report.to_str().unwrap()];
+    all.extend_from_slice(args);
+    let out = run(&dir.run_dir(), &all);
+    let text = std::fs::read_to_string(&report).unwrap_or_else(|e| {
+        panic!(
+            "no report ({e}); stderr: {}",
+            String::from_utf8_lossy(&out.stderr)
+        )
+    });
+    assert!(run_dir_leftovers(&dir.run_dir()).is_empty());
+    (out, serde_json::from_str(&text).unwrap())
+}

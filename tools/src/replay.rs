@@ -1,0 +1,386 @@
+//! Publishes the raw payloads of a recorded file into a live instance, byte for byte.
+//!
+//! Before anything is published, every selected channel is checked against this build:
+//! same message type, size and layout hash, else the file is refused naming the service.
+//! Pacing follows the recorded receive times (`log_time`) scaled by a rate, against
+//! absolute deadlines on the monotonic clock so errors do not accumulate; without a rate
+//! messages go out as fast as possible. A start offset skips the beginning but first
+//! publishes the newest sample of each state service (history > 0: maps, goals, band),
+//! as a late subscriber would have received it. A truncated file is replayed as far as
+//! it can be read, and the summary says where it ends. Lockstep replay (waiting for the
+//! consumers' acknowledgements) is not done here.
+
+use crate::catalog::{ServiceInfo, service_info, services};
+use crate::reader::{ChannelInfo, ReadError, RecordFile};
+use aisle_bus::{Bus, BusError, Instance, Publisher, Qos, clock, signals};
+use aisle_messages::{Message, NodeKind, services as s};
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::time::Duration;
+
+#[derive(Debug, Clone)]
+pub struct ReplayOptions {
+    pub file: PathBuf,
+    /// The live instance to publish into.
+    pub instance: Instance,
+    /// Speed relative to the recording (2.0 = twice as fast); `None` = as fast as possible.
+    pub rate: Option<f64>,
+    /// Services to publish; empty = every recorded service except the instance
+    /// announcement and heartbeats (those belong to the live processes).
+    pub topics: Vec<String>,
+    /// Skip this much recorded time from the first message on.
+    pub start_offset_ns: u64,
+    /// How long to wait for the live supervisor's announcement.
+    pub join_timeout: Duration,
+    /// Pause after creating the publishers, so live subscribers connect before the
+    /// first sample goes out.
+    pub settle: Duration,
+}
+
+impl ReplayOptions {
+    pub fn new(file: impl Into<PathBuf>, instance: Instance) -> Self {
+        Self {
+            file: file.into(),
+            instance,
+            rate: Some(1.0),
+            topics: Vec::new(),
+            start_offset_ns: 0,
+            join_timeout: Duration::from_secs(10),
+            settle: Duration::from_millis(200),
+        }
+    }
+}
+
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ReplaySummary {
+    /// Samples published, per service.
+    pub published: BTreeMap<String, u64>,
+    /// Samples before the start offset that were not published.
+    pub skipped: u64,
+    /// State samples published first because of the start offset.
+    pub latched: u64,
+    /// Largest delay behind the paced deadline.
+    pub max_lateness_ns: u64,
+    /// Where a damaged file stops being readable (`None` when read to the end).
+    pub truncated: Option<String>,
+    /// True when SIGINT/SIGTERM ended the replay early.
+    pub stopped: bool,
+    /// The file was written by a build with another schema hash, but every replayed
+    /// service has the same layout as ours.
+    pub foreign_schema_hash: Option<String>,
+}
+
+impl ReplaySummary {
+    pub fn total(&self) -> u64 {
+        self.published.values().sum()
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ReplayError {
+    #[error(transparent)]
+    Read(#[from] ReadError),
+    #[error(
+        "refusing {}: service `{}` was recorded as {} ({} bytes, layout {}) but this build has {} ({} bytes, layout {}); replay it with the build that recorded it",
+        .0.file.display(), .0.service, .0.file_type, .0.file_size, .0.file_layout, .0.our_type, .0.our_size, .0.our_layout
+    )]
+    LayoutMismatch(Box<LayoutMismatch>),
+    #[error("{file}: topic `{topic}` is not an aisle service this build knows")]
+    UnknownTopic { file: PathBuf, topic: String },
+    #[error("{file} has no recorded samples of `{topic}`")]
+    TopicNotRecorded { file: PathBuf, topic: String },
+    #[error("`{0}` is not replayed: the live supervisor announces the instance itself")]
+    NotReplayable(String),
+    #[error("invalid replay rate {0}: give a positive finite number")]
+    InvalidRate(f64),
+    #[error(transparent)]
+    Bus(#[from] BusError),
+}
+
+/// A recorded channel whose layout differs from this build's.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LayoutMismatch {
+    pub file: PathBuf,
+    pub service: String,
+    pub file_type: String,
+    pub file_size: String,
+    pub file_layout: String,
+    pub our_type: &'static str,
+    pub our_size: usize,
+    pub our_layout: String,
+}
+
+/// A publisher of recorded bytes, whatever its message type.
+trait RawSink {
+    fn publish(&mut self, bytes: &[u8]) -> Result<(), BusError>;
+}
+
+impl<M: Message> RawSink for Publisher<M> {
+    fn publish(&mut self, bytes: &[u8]) -> Result<(), BusError> {
+        self.publish_bytes(bytes)
+    }
+}
+
+fn make_sink(bus: &Bus, service: &str) -> Result<Option<Box<dyn RawSink>>, BusError> {
+    macro_rules! sink {
+        ($svc:expr, $ty:ty) => {
+            if service == $svc {
+                return Ok(Some(Box::new(bus.publisher::<$ty>($svc)?)));
+            }
+        };
+    }
+    crate::for_each_service!(sink);
+    Ok(None)
+}
+
+/// Checks a recorded raw channel against this build.
+pub fn check_channel(file: &std::path::Path, c: &ChannelInfo) -> Result<ServiceInfo, ReplayError> {
+    let ours = service_info(&c.topic).ok_or_else(|| ReplayError::UnknownTopic {
+        file: file.to_path_buf(),
+        topic: c.topic.clone(),
+    })?;
+    let file_type = c.meta("type_name").unwrap_or("<none>");
+    let file_size = c.meta("size").unwrap_or("<none>");
+    let file_layout = c.meta("layout_hash").unwrap_or("<none>");
+    if file_type != ours.type_name
+        || file_size != ours.size.to_string()
+        || file_layout != ours.layout_hash_hex()
+    {
+        return Err(ReplayError::LayoutMismatch(Box::new(LayoutMismatch {
+            file: file.to_path_buf(),
+            service: c.topic.clone(),
+            file_type: file_type.to_string(),
+            file_size: file_size.to_string(),
+            file_layout: file_layout.to_string(),
+            our_type: ours.type_name,
+            our_size: ours.size,
+            our_layout: ours.layout_hash_hex(),
+        })));
+    }
+    Ok(ours)
+}
+
+/// The services a replay publishes, after checking each against this build.
+pub fn plan(
+    file: &RecordFile,
+    topics: &[String],
+) -> Result<(Vec<String>, Option<String>), ReplayError> {
+    let recorded = recorded_channels(file);
+    let path = file.path();
+    let selected: Vec<String> = if topics.is_empty() {
+        recorded
+            .keys()
+            .filter(|t| *t != s::INSTANCE && *t != s::HEARTBEAT)
+            .cloned()
+            .collect()
+    } else {
+        for t in topics {
+            if t == s::INSTANCE {
+                return Err(ReplayError::NotReplayable(t.clone()));
+            }
+            if service_info(t).is_none() {
+                return Err(ReplayError::UnknownTopic {
+                    file: path.to_path_buf(),
+                    topic: t.clone(),
+                });
+            }
+            if !recorded.contains_key(t) {
+                return Err(ReplayError::TopicNotRecorded {
+                    file: path.to_path_buf(),
+                    topic: t.clone(),
+                });
+            }
+        }
+        topics.to_vec()
+    };
+    let mut foreign = None;
+    for t in &selected {
+        let c = &recorded[t];
+        check_channel(path, c)?;
+        if let Some(h) = c.meta("schema_hash")
+            && h != aisle_messages::schema_hash_hex()
+        {
+            foreign = Some(h.to_string());
+        }
+    }
+    Ok((selected, foreign))
+}
+
+/// Raw channels that have at least one readable sample, by topic.
+fn recorded_channels(file: &RecordFile) -> BTreeMap<String, ChannelInfo> {
+    let mut out = BTreeMap::new();
+    for m in file.raw_messages() {
+        let Ok(m) = m else { break };
+        if !out.contains_key(&m.channel.topic) {
+            out.insert(m.channel.topic.clone(), (*m.channel).clone());
+        }
+    }
+    out
+}
+
+/// Replays a recorded file into a live instance (see the module docs).
+pub fn replay(opts: &ReplayOptions) -> Result<ReplaySummary, ReplayError> {
+    if let Some(r) = opts.rate
+        && !(r.is_finite() && r > 0.0)
+    {
+        return Err(ReplayError::InvalidRate(r));
+    }
+    let file = RecordFile::open(&opts.file)?;
+    let (selected, foreign) = plan(&file, &opts.topics)?;
+    let (bus, _info) = Bus::join(&opts.instance, NodeKind::Replay, opts.join_timeout)?;
+    let catalog = services();
+    let mut sinks: Vec<Option<Box<dyn RawSink>>> = Vec::with_capacity(catalog.len());
+    for info in &catalog {
+        sinks.push(if selected.iter().any(|t| t == info.service) {
+            make_sink(&bus, info.service)?
+        } else {
+            None
+        });
+    }
+    std::thread::sleep(opts.settle);
+    let index_of = |topic: &str| catalog.iter().position(|i| i.service == topic);
+
+    let mut summary = ReplaySummary {
+        foreign_schema_hash: foreign,
+        ..ReplaySummary::default()
+    };
+    let mut first_log_time = None;
+    let mut pacing: Option<(u64, u64)> = None; // (recorded t0, wall t0)
+    let mut latched: BTreeMap<usize, Vec<u8>> = BTreeMap::new();
+    let mut latched_done = opts.start_offset_ns == 0;
+    for m in file.raw_messages() {
+        let m = match m {
+            Ok(m) => m,
+            Err(e) => {
+                summary.truncated = Some(e.to_string());
+                break;
+            }
+        };
+        if signals::stop_requested() {
+            summary.stopped = true;
+            break;
+        }
+        let Some(i) = index_of(&m.channel.topic) else {
+            continue;
+        };
+        let first = *first_log_time.get_or_insert(m.log_time);
+        if sinks[i].is_none() {
+            continue;
+        }
+        if m.log_time < first.saturating_add(opts.start_offset_ns) {
+            summary.skipped += 1;
+            if Qos::for_service(&m.channel.topic).history > 0 {
+                latched.insert(i, m.data);
+            }
+            continue;
+        }
+        if !latched_done {
+            latched_done = true;
+            for (li, data) in std::mem::take(&mut latched) {
+                if let Some(sink) = sinks[li].as_mut() {
+                    sink.publish(&data)?;
+                    summary.latched += 1;
+                    *summary
+                        .published
+                        .entry(catalog[li].service.to_string())
+                        .or_default() += 1;
+                }
+            }
+        }
+        if let Some(rate) = opts.rate {
+            let (t0, w0) = *pacing.get_or_insert((m.log_time, clock::monotonic_ns()));
+            let due = w0 + ((m.log_time.saturating_sub(t0)) as f64 / rate) as u64;
+            if !sleep_until(due) {
+                summary.stopped = true;
+                break;
+            }
+            summary.max_lateness_ns = summary
+                .max_lateness_ns
+                .max(clock::monotonic_ns().saturating_sub(due));
+        }
+        if let Some(sink) = sinks[i].as_mut() {
+            sink.publish(&m.data)?;
+            *summary
+                .published
+                .entry(m.channel.topic.clone())
+                .or_default() += 1;
+        }
+    }
+    Ok(summary)
+}
+
+/// Sleeps until the monotonic clock reaches `due`; false when a stop was requested.
+fn sleep_until(due: u64) -> bool {
+    loop {
+        if signals::stop_requested() {
+            return false;
+        }
+        let now = clock::monotonic_ns();
+        if now >= due {
+            return true;
+        }
+        std::thread::sleep(Duration::from_nanos((due - now).min(50_000_000)));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::synthetic::write_synthetic;
+    use crate::writer::WriterOptions;
+    use std::io::Cursor;
+    use std::path::Path;
+
+    fn file() -> RecordFile {
+        let bytes = write_synthetic(Cursor::new(Vec::new()), 12, WriterOptions::default())
+            .unwrap()
+            .into_inner();
+        RecordFile::from_bytes(Path::new("run.mcap"), bytes).unwrap()
+    }
+
+    #[test]
+    fn plan_selects_recorded_services_and_checks_names() {
+        let f = file();
+        let (all, foreign) = plan(&f, &[]).unwrap();
+        assert!(foreign.is_none());
+        assert!(all.contains(&s::POINT_CLOUD.to_string()));
+        assert!(!all.contains(&s::HEARTBEAT.to_string()));
+        let (one, _) = plan(&f, &[s::TICK.to_string()]).unwrap();
+        assert_eq!(one, [s::TICK]);
+        let e = plan(&f, &["aisle/nope".to_string()]).unwrap_err();
+        assert!(e.to_string().contains("aisle/nope"), "{e}");
+        let e = plan(&f, &[s::SIM_COMMAND.to_string()]).unwrap_err();
+        assert!(matches!(e, ReplayError::TopicNotRecorded { .. }), "{e}");
+        assert!(matches!(
+            plan(&f, &[s::INSTANCE.to_string()]),
+            Err(ReplayError::NotReplayable(_))
+        ));
+    }
+
+    #[test]
+    fn a_different_layout_is_refused_naming_the_service() {
+        let mut c = ChannelInfo {
+            id: 1,
+            topic: s::TRAJECTORY.to_string(),
+            message_encoding: crate::writer::RAW_ENCODING.into(),
+            schema_name: None,
+            metadata: BTreeMap::new(),
+        };
+        let ours = service_info(s::TRAJECTORY).unwrap();
+        c.metadata.insert("type_name".into(), ours.type_name.into());
+        c.metadata.insert("size".into(), ours.size.to_string());
+        c.metadata
+            .insert("layout_hash".into(), ours.layout_hash_hex());
+        assert!(check_channel(Path::new("a.mcap"), &c).is_ok());
+        c.metadata
+            .insert("layout_hash".into(), "0123456789abcdef".into());
+        let e = check_channel(Path::new("a.mcap"), &c).unwrap_err();
+        let text = e.to_string();
+        assert!(text.contains("aisle/controller/trajectory"), "{text}");
+        assert!(text.contains("0123456789abcdef"), "{text}");
+        c.metadata
+            .insert("layout_hash".into(), ours.layout_hash_hex());
+        c.metadata.insert("size".into(), "28785".into());
+        assert!(check_channel(Path::new("a.mcap"), &c).is_err());
+    }
+}
