@@ -297,3 +297,71 @@ fn map_export_writes_the_static_map_as_a_ros_map() {
     assert_eq!(occupied(&read.cells), occupied(&expected.cells));
     assert!(expected.cells.iter().any(|&c| c != 0));
 }
+
+#[test]
+fn a_recorded_run_profiles_renders_and_survives_truncation() {
+    let dir = TestDir::new("record");
+    let mission = short_mission(&dir, "short.toml");
+    let file = dir.path("run.mcap");
+    let out = run(
+        &dir.run_dir(),
+        &[
+            "run",
+            "--quiet",
+            "--mission",
+            mission.to_str().unwrap(),
+            "--record",
+            file.to_str().unwrap(),
+        ],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(!err.contains("lost"), "the recorder lost samples: {err}");
+    // Every tick the simulator announced is in the file, once.
+    let rec = aisle_tools::reader::RecordFile::open(&file).unwrap();
+    let ticks = rec
+        .raw_messages()
+        .filter(|m| {
+            m.as_ref()
+                .is_ok_and(|m| m.channel.topic == aisle_messages::services::TICK)
+        })
+        .count();
+    assert!(ticks > 10, "{ticks} ticks recorded");
+
+    let prof = run(&dir.run_dir(), &["profile", file.to_str().unwrap()]);
+    let table = String::from_utf8_lossy(&prof.stdout);
+    assert!(
+        prof.status.success(),
+        "{}",
+        String::from_utf8_lossy(&prof.stderr)
+    );
+    assert!(table.contains("end to end"), "{table}");
+    let png = dir.path("run.png");
+    let r = run(
+        &dir.run_dir(),
+        &[
+            "render",
+            file.to_str().unwrap(),
+            "-o",
+            png.to_str().unwrap(),
+        ],
+    );
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert_eq!(&std::fs::read(&png).unwrap()[..8], b"\x89PNG\r\n\x1a\n");
+
+    // A truncated file: a clear answer, never a panic.
+    let bytes = std::fs::read(&file).unwrap();
+    let cut = dir.path("cut.mcap");
+    std::fs::write(&cut, &bytes[..bytes.len() * 2 / 3]).unwrap();
+    let p = run(&dir.run_dir(), &["profile", cut.to_str().unwrap()]);
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&p.stdout),
+        String::from_utf8_lossy(&p.stderr)
+    );
+    assert_ne!(p.status.code(), Some(101), "panicked: {text}");
+    assert!(
+        text.contains("damaged") || text.contains("truncated"),
+        "{text}"
+    );
+}

@@ -21,6 +21,7 @@ fn main() -> anyhow::Result<()> {
         start: [0.0, 0.0, 0.0],
         lidar_off: false,
         restarted: false,
+        recorded: false,
     };
     let summary = run_recorder_with(&args, &PathBuf::from(&a[3]), &RecorderOptions::default())?;
     println!(

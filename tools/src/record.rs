@@ -13,8 +13,8 @@ use crate::aligned::AlignedBuf;
 use crate::catalog::services;
 use crate::viewer::{ViewerConverter, ViewerOptions};
 use crate::writer::{RecordWriter, WriteError, WriterOptions, media_type, trimmed_len};
-use aisle_bus::{Bus, BusError, NodeArgs, NodeError, Subscriber, clock, signals};
-use aisle_messages::{InstanceInfo, Message, NodeKind, NodeState};
+use aisle_bus::{Bus, BusError, NodeArgs, NodeError, Publisher, Stamp, Subscriber, clock, signals};
+use aisle_messages::{InstanceInfo, Message, NodeKind, NodeState, StageStatus, TickDone, services};
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
 use std::io::BufWriter;
@@ -189,6 +189,7 @@ pub fn run_recorder_with(
     let (bus, info) = Bus::join(&args.instance, NodeKind::Recorder, NodeArgs::JOIN_TIMEOUT)?;
     let sources = subscribe_all(&bus)?;
     let mut heartbeat = bus.heartbeat()?;
+    let mut acks = bus.publisher::<TickDone>(services::TICK_DONE)?;
 
     let file = File::create(out)
         .map_err(|e| NodeError::setup(format!("recorder: output {}", out.display()), e))?;
@@ -242,6 +243,7 @@ pub fn run_recorder_with(
         ..RecordSummary::default()
     };
     let loop_result = drain_loop(
+        &mut acks,
         &sources,
         &jobs,
         &free_rx,
@@ -291,8 +293,23 @@ pub fn run_recorder_with(
     }
 }
 
+/// Offsets in a `TickDone` payload: the header's tick and the acknowledging node.
+const TICK_DONE_TICK_AT: usize = 16;
+const TICK_DONE_NODE_AT: usize = 48;
+
+fn le_u64(b: &[u8], at: usize) -> Option<u64> {
+    b.get(at..at + 8)
+        .map(|w| u64::from_le_bytes(w.try_into().unwrap_or([0; 8])))
+}
+
+fn le_u32(b: &[u8], at: usize) -> Option<u32> {
+    b.get(at..at + 4)
+        .map(|w| u32::from_le_bytes(w.try_into().unwrap_or([0; 4])))
+}
+
 #[allow(clippy::too_many_arguments)]
 fn drain_loop(
+    acks: &mut Publisher<TickDone>,
     sources: &[Box<dyn RawSource>],
     jobs: &mpsc::Sender<Job>,
     free: &mpsc::Receiver<(usize, AlignedBuf)>,
@@ -307,6 +324,11 @@ fn drain_loop(
     let mut seqs = SeqTracker::default();
     let mut warned: Vec<bool> = vec![false; sources.len()];
     let mut writer_gone = false;
+    let tick_done = names.iter().position(|n| *n == services::TICK_DONE);
+    // The supervisor's acknowledgement of tick k is the last message of that tick; once
+    // everything before it is drained, the recorder acknowledges k too, and a lockstep
+    // simulator that waits for it loses nothing to the recorder.
+    let (mut seen_tick, mut acked_tick): (Option<u64>, Option<u64>) = (None, None);
     loop {
         if signals::stop_requested() {
             return Err(BusError::StopRequested.into());
@@ -325,6 +347,12 @@ fn drain_loop(
                 let log_time = clock::monotonic_ns();
                 let mut job = None;
                 let got = src.next_bytes(&mut |bytes| {
+                    if Some(i) == tick_done
+                        && le_u32(bytes, TICK_DONE_NODE_AT) == Some(NodeKind::Supervisor as u32)
+                        && let Some(t) = le_u64(bytes, TICK_DONE_TICK_AT)
+                    {
+                        seen_tick = Some(seen_tick.map_or(t, |s: u64| s.max(t)));
+                    }
                     match seqs.check(i, bytes) {
                         SeqVerdict::Repeat => return,
                         SeqVerdict::New { lost } if lost > 0 => {
@@ -374,6 +402,21 @@ fn drain_loop(
         }
         heartbeat.tick(NodeState::Running)?;
         if received == 0 {
+            if let Some(t) = seen_tick
+                && acked_tick != Some(t)
+            {
+                acked_tick = Some(t);
+                acks.publish(
+                    Stamp {
+                        tick: t,
+                        ..Stamp::default()
+                    },
+                    |m| {
+                        m.node = NodeKind::Recorder as u32;
+                        m.status = StageStatus::Done as u32;
+                    },
+                )?;
+            }
             std::thread::sleep(options.poll_period);
         }
     }

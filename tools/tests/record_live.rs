@@ -39,6 +39,7 @@ fn records_published_payloads_byte_for_byte_and_finalises_on_stop() {
         start: [0.0, 0.0, 0.0],
         lidar_off: false,
         restarted: false,
+        recorded: false,
     };
     let recorder = {
         let out = out.clone();

@@ -127,6 +127,9 @@ pub struct NodeArgs {
     pub lidar_off: bool,
     /// This process replaces one that died: resume from the state it published.
     pub restarted: bool,
+    /// A recorder runs: in lockstep the simulator also waits for its acknowledgement,
+    /// so the record is complete.
+    pub recorded: bool,
 }
 
 impl NodeArgs {

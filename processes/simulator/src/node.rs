@@ -169,7 +169,7 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
         heartbeat.tick(NodeState::Running)?;
 
         match mode {
-            TickMode::Lockstep => wait_stages(&ports, &mut heartbeat, k, stages)?,
+            TickMode::Lockstep => wait_stages(&ports, &mut heartbeat, k, stages, args.recorded)?,
             TickMode::Realtime => {
                 // Release the next tick on the wall clock.
                 let due = wall_start + (k + 1 - first_tick) * dt_ns;
@@ -392,8 +392,12 @@ fn wait_stages(
     heartbeat: &mut HeartbeatSender,
     k: u64,
     stages: u32,
+    recorded: bool,
 ) -> Result<(), NodeError> {
     let mut pending = vec![NodeKind::Lidar, NodeKind::Mapper, NodeKind::Supervisor];
+    if recorded {
+        pending.push(NodeKind::Recorder);
+    }
     if stages & STAGE_CONTROLLER != 0 {
         pending.push(NodeKind::TebController);
     }

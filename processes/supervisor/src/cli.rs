@@ -1,7 +1,7 @@
 //! Command-line interface. Parses arguments, sets up logging, and maps every outcome to
 //! an exit code: 0 success, 1 mission or check failure, 2 usage or setup error.
 
-use crate::{check, nodes, session};
+use crate::{check, nodes, records, session};
 use aisle_messages::TickMode;
 use clap::{Args, Parser, Subcommand};
 use std::path::{Path, PathBuf};
@@ -31,6 +31,33 @@ pub enum Command {
     Map {
         #[command(subcommand)]
         command: MapCommand,
+    },
+    /// Publish a recorded run into a live process group (`--prefix`/`--root` of its
+    /// instance, as `aisle run` logs them).
+    Replay(ReplayArgs),
+    /// Latency and jitter per stage and end to end from a recorded run.
+    Profile {
+        file: PathBuf,
+        /// Deadline for the misses column, milliseconds.
+        #[arg(long, default_value_t = 50.0)]
+        deadline_ms: f64,
+        /// Also write a latency plot (SVG).
+        #[arg(long)]
+        svg: Option<PathBuf>,
+        /// Print histograms too.
+        #[arg(long)]
+        histograms: bool,
+    },
+    /// Draw the top view of a recorded run as a PNG.
+    Render {
+        file: PathBuf,
+        #[arg(short, long)]
+        output: PathBuf,
+        #[arg(long, default_value_t = 25.0)]
+        pixels_per_metre: f64,
+        /// Draw every n-th controller band (0 for none).
+        #[arg(long, default_value_t = 15)]
+        band_every: usize,
     },
     /// Run one node of a process group (started by `aisle run`, not by hand).
     #[command(hide = true)]
@@ -73,6 +100,9 @@ pub struct RunArgs {
     /// Mission file instead of `<config-dir>/mission.toml`.
     #[arg(long)]
     pub mission: Option<PathBuf>,
+    /// Record every service to this MCAP file (raw payloads plus Foxglove channels).
+    #[arg(long)]
+    pub record: Option<PathBuf>,
     /// Fault injection: SIGKILL a node when the run reaches a tick, e.g. `lidar@120`
     /// (once; the node is restarted as after any crash). Repeatable.
     #[arg(long = "kill", value_name = "NODE@TICK")]
@@ -80,6 +110,27 @@ pub struct RunArgs {
     /// Fault injection: this node fails at every start (tests the restart limit).
     #[arg(long, value_name = "NODE", hide = true)]
     pub crash_on_start: Option<String>,
+}
+
+#[derive(Debug, Clone, Args)]
+pub struct ReplayArgs {
+    pub file: PathBuf,
+    #[arg(long)]
+    pub prefix: String,
+    #[arg(long)]
+    pub root: PathBuf,
+    /// Playback rate relative to the recording (omit with --fast for no pacing).
+    #[arg(long, default_value_t = 1.0)]
+    pub rate: f64,
+    /// As fast as possible.
+    #[arg(long)]
+    pub fast: bool,
+    /// Only these services (e.g. aisle/lidar/points); default all but instance and heartbeats.
+    #[arg(long, num_args = 1..)]
+    pub topics: Vec<String>,
+    /// Skip the first seconds of the recording.
+    #[arg(long, default_value_t = 0.0)]
+    pub start: f64,
 }
 
 #[derive(Debug, Args)]
@@ -103,6 +154,12 @@ pub struct NodeCmd {
     /// This node replaces one that died: resume from its published state.
     #[arg(long)]
     pub restarted: bool,
+    /// The recorder's output file.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// A recorder runs (the simulator waits for it in lockstep).
+    #[arg(long)]
+    pub recorded: bool,
     /// Fault injection for tests: fail at start, every time.
     #[arg(long, hide = true)]
     pub fail_on_start: bool,
@@ -176,6 +233,28 @@ pub fn main() -> ExitCode {
                 }
             }
         }
+        Command::Replay(a) => {
+            init_logging("info");
+            records::replay(&a)
+        }
+        Command::Profile {
+            file,
+            deadline_ms,
+            svg,
+            histograms,
+        } => {
+            init_logging("warn");
+            records::profile(&file, deadline_ms, svg.as_deref(), histograms)
+        }
+        Command::Render {
+            file,
+            output,
+            pixels_per_metre,
+            band_every,
+        } => {
+            init_logging("warn");
+            records::render(&file, &output, pixels_per_metre, band_every)
+        }
         Command::Run(args) => {
             init_logging("info");
             let opts = session::RunOptions {
@@ -191,6 +270,7 @@ pub fn main() -> ExitCode {
                 lidar_off: args.no_lidar,
                 mission: args.mission.clone(),
                 kill: args.kill.clone(),
+                record: args.record.clone(),
                 crash_on_start: args.crash_on_start.clone(),
             };
             match session::run(&opts) {

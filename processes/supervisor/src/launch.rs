@@ -178,10 +178,21 @@ impl ProcessGroup {
     }
 
     /// SIGTERM to every live child, up to `grace` for them to exit, then SIGKILL; every
-    /// child is reaped before this returns. Returns how each ended.
+    /// child is reaped before this returns. A recorder goes last, so it records the
+    /// others to their end, and it gets [`RECORDER_GRACE`] to finalise its file.
+    /// Returns how each ended.
     pub fn stop(&mut self, grace: Duration) -> Vec<(NodeKind, ExitStatus)> {
+        self.stop_where(grace, |k| k != NodeKind::Recorder);
+        self.stop_where(RECORDER_GRACE.max(grace), |k| k == NodeKind::Recorder);
+        self.children
+            .iter()
+            .filter_map(|c| c.exited.map(|s| (c.kind, s)))
+            .collect()
+    }
+
+    fn stop_where(&mut self, grace: Duration, which: impl Fn(NodeKind) -> bool) {
         for c in &self.children {
-            if c.exited.is_none() {
+            if c.exited.is_none() && which(c.kind) {
                 // SAFETY: sending a signal to our own child's pid.
                 unsafe { libc::kill(c.child.id() as i32, libc::SIGTERM) };
             }
@@ -189,7 +200,7 @@ impl ProcessGroup {
         let deadline = Instant::now() + grace;
         loop {
             let mut alive = 0;
-            for c in &mut self.children {
+            for c in self.children.iter_mut().filter(|c| which(c.kind)) {
                 if c.exited.is_none() {
                     match c.child.try_wait() {
                         Ok(Some(s)) => c.exited = Some(s),
@@ -202,18 +213,17 @@ impl ProcessGroup {
             }
             std::thread::sleep(Duration::from_millis(10));
         }
-        for c in &mut self.children {
+        for c in self.children.iter_mut().filter(|c| which(c.kind)) {
             if c.exited.is_none() {
                 let _ = c.child.kill();
                 c.exited = c.child.wait().ok();
             }
         }
-        self.children
-            .iter()
-            .filter_map(|c| c.exited.map(|s| (c.kind, s)))
-            .collect()
     }
 }
+
+/// Time a recorder gets to write out its queue and finalise the file.
+pub const RECORDER_GRACE: Duration = Duration::from_secs(30);
 
 impl Drop for ProcessGroup {
     fn drop(&mut self) {

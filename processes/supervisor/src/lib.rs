@@ -9,6 +9,7 @@
 //! - [`restart`]: the restart policy and the count of restarts.
 //! - [`check`]: validation of every file in `config/`.
 //! - [`nodes`]: `aisle node <name>`, which runs one process's node adapter.
+//! - [`records`]: `aisle replay`, `profile` and `render` of MCAP recordings.
 
 pub mod budgets;
 pub mod check;
@@ -16,6 +17,7 @@ pub mod cli;
 pub mod launch;
 pub mod mission;
 pub mod nodes;
+pub mod records;
 pub mod report;
 pub mod restart;
 pub mod session;

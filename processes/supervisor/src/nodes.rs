@@ -11,7 +11,8 @@ use aisle_messages::NodeKind;
 use std::process::ExitCode;
 
 pub fn main(cmd: NodeCmd) -> ExitCode {
-    let Some(kind) = NodeKind::from_name(&cmd.name).filter(|k| NodeKind::LAUNCHED.contains(k))
+    let Some(kind) = NodeKind::from_name(&cmd.name)
+        .filter(|k| NodeKind::LAUNCHED.contains(k) || *k == NodeKind::Recorder)
     else {
         let names: Vec<&str> = NodeKind::LAUNCHED.iter().map(|k| k.name()).collect();
         eprintln!(
@@ -49,6 +50,7 @@ pub fn main(cmd: NodeCmd) -> ExitCode {
         start,
         lidar_off: cmd.lidar_off,
         restarted: cmd.restarted,
+        recorded: cmd.recorded,
     };
     if cmd.fail_on_start {
         eprintln!(
@@ -57,12 +59,20 @@ pub fn main(cmd: NodeCmd) -> ExitCode {
         );
         return ExitCode::from(1);
     }
+    let out = cmd.out.clone();
     let result: Result<(), NodeError> = match kind {
         NodeKind::Simulator => aisle_simulator::node::run(&args),
         NodeKind::Lidar => aisle_lidar::node::run(&args),
         NodeKind::Mapper => aisle_mapper::node::run(&args),
         NodeKind::GlobalPlanner => aisle_global_planner::node::run(&args),
         NodeKind::TebController => aisle_teb_controller::node::run(&args),
+        NodeKind::Recorder => match &out {
+            Some(out) => aisle_tools::record::run_recorder(&args, out),
+            None => {
+                eprintln!("error: recorder: --out <file> is required");
+                return ExitCode::from(2);
+            }
+        },
         _ => unreachable!("filtered above"),
     };
     match result {

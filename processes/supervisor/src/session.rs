@@ -46,6 +46,8 @@ pub struct RunOptions {
     pub kill: Vec<String>,
     /// Fault injection: this node fails at every start.
     pub crash_on_start: Option<String>,
+    /// Record every service to this MCAP file.
+    pub record: Option<PathBuf>,
 }
 
 pub struct RunOutcome {
@@ -162,6 +164,11 @@ fn load(opts: &RunOptions) -> anyhow::Result<Loaded> {
 pub fn run(opts: &RunOptions) -> anyhow::Result<RunOutcome> {
     let loaded = load(opts)?;
     let instance = Instance::unique(&run_base_dir());
+    tracing::info!(
+        "instance --prefix {} --root {}",
+        instance.prefix,
+        instance.root.display()
+    );
     let exe = current_exe().map_err(|e| anyhow!(e))?;
     let wall_start = Instant::now();
     let result = Session::start(opts, &loaded, &instance, exe).map(|mut s| {
@@ -294,6 +301,8 @@ struct Watch {
     restarts: RestartBook,
     last_seen: HashMap<NodeKind, Instant>,
     ready: Vec<NodeKind>,
+    /// The nodes of this run (the five, and a recorder when recording).
+    expected: Vec<NodeKind>,
     /// The mission runs: a node that dies now resumes from its published state.
     running: bool,
     /// Nodes restarted since the session last looked (plans to resend, a robot to stop).
@@ -308,6 +317,15 @@ impl Watch {
         self.drain_heartbeats()?;
         self.keeper.take()?;
         while let Some((kind, status)) = self.group.poll_exit() {
+            if kind == NodeKind::Recorder {
+                // Losing the record must not stop the robot: go on without it.
+                tracing::error!(
+                    "the recorder {}; the run goes on unrecorded",
+                    describe(&status)
+                );
+                self.expected.retain(|k| *k != NodeKind::Recorder);
+                continue;
+            }
             let policy = self.restart.policy(kind);
             let now_s = self.started.elapsed().as_secs_f64();
             let last = self
@@ -348,7 +366,10 @@ impl Watch {
             }
         }
         let now = Instant::now();
-        for kind in NodeKind::LAUNCHED {
+        for kind in NodeKind::LAUNCHED
+            .into_iter()
+            .filter(|k| self.expected.contains(k))
+        {
             let timeout = Duration::from_secs_f64(self.restart.policy(kind).heartbeat_timeout_s);
             if self
                 .last_seen
@@ -507,6 +528,15 @@ impl Session {
         let every = cfg.controller_every();
         let lidar_off = opts.lidar_off;
         let crash = opts.crash_on_start.clone();
+        // The recorder runs in the nodes' working directory: give it an absolute path.
+        let record = match &opts.record {
+            Some(p) if p.is_relative() => Some(std::env::current_dir()?.join(p)),
+            other => other.clone(),
+        };
+        let mut expected: Vec<NodeKind> = NodeKind::LAUNCHED.to_vec();
+        if record.is_some() {
+            expected.push(NodeKind::Recorder);
+        }
         let extra = move |kind: NodeKind| -> Vec<String> {
             let mut v = vec![
                 "--dt-ns".to_string(),
@@ -521,6 +551,15 @@ impl Session {
             if crash.as_deref() == Some(kind.name()) {
                 v.push("--fail-on-start".into());
             }
+            if kind == NodeKind::Simulator && record.is_some() {
+                v.push("--recorded".into());
+            }
+            if kind == NodeKind::Recorder
+                && let Some(out) = &record
+            {
+                v.push("--out".into());
+                v.push(out.display().to_string());
+            }
             v
         };
         let config_dir = std::fs::canonicalize(&opts.config_dir)
@@ -532,7 +571,7 @@ impl Session {
             extra: Box::new(extra),
         };
         let mut group = ProcessGroup::new(spec);
-        for kind in NodeKind::LAUNCHED {
+        for kind in expected.iter().copied() {
             if let Err(e) = group.spawn(kind, false) {
                 group.stop(GRACE);
                 bail!(e);
@@ -563,6 +602,7 @@ impl Session {
             restarts: RestartBook::default(),
             last_seen: NodeKind::LAUNCHED.iter().map(|k| (*k, now)).collect(),
             ready: Vec::new(),
+            expected,
             running: false,
             restarted: Vec::new(),
             started: now,
@@ -608,11 +648,18 @@ impl Session {
 
     fn wait_ready(&mut self) -> Result<(), Halt> {
         let started = Instant::now();
-        while self.watch.ready.len() < NodeKind::LAUNCHED.len() {
+        while self
+            .watch
+            .expected
+            .iter()
+            .any(|k| !self.watch.ready.contains(k))
+        {
             self.watch.check()?;
             self.watch.heartbeat_wait(POLL)?;
             if started.elapsed() > READY_TIMEOUT {
-                let missing: Vec<&str> = NodeKind::LAUNCHED
+                let missing: Vec<&str> = self
+                    .watch
+                    .expected
                     .iter()
                     .filter(|k| !self.watch.ready.contains(k))
                     .map(|k| k.name())
