@@ -86,6 +86,17 @@ fn a_killed_node_is_named_restarted_and_the_mission_goes_on() {
     assert_eq!(nodes.len(), 5, "{nodes:?}");
     // Let the run get going, then kill the lidar as a crash would.
     std::thread::sleep(Duration::from_millis(1500));
+    // Meanwhile: the instance's shared memory is its owner's only.
+    let shm = shm_leftovers(pid);
+    assert!(!shm.is_empty());
+    for f in &shm {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = std::fs::metadata(format!("/dev/shm/{f}"))
+            .unwrap()
+            .permissions()
+            .mode();
+        assert_eq!(mode & 0o077, 0, "/dev/shm/{f} has mode {mode:o}");
+    }
     let lidar = nodes.iter().find(|(n, _)| n == "lidar").unwrap().1;
     unsafe { libc::kill(lidar as i32, libc::SIGKILL) };
     let status = wait_exit(&mut aisle, Duration::from_secs(120)).expect("the supervisor exits");

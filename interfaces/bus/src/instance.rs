@@ -130,6 +130,27 @@ impl Instance {
         }
     }
 
+    /// Makes every shared-memory file of the instance readable and writable by its
+    /// owner only. iceoryx2 0.10 creates each node's `global_mgmt` segment open to
+    /// everyone; processes of the instance run as the same user, so they keep access.
+    /// Returns how many files were changed.
+    pub fn restrict_shm_permissions(&self) -> usize {
+        use std::os::unix::fs::PermissionsExt;
+        let mut changed = 0;
+        for f in self.shm_files() {
+            if let Ok(meta) = std::fs::metadata(&f) {
+                let mode = meta.permissions().mode();
+                if mode & 0o077 != 0
+                    && std::fs::set_permissions(&f, std::fs::Permissions::from_mode(mode & 0o700))
+                        .is_ok()
+                {
+                    changed += 1;
+                }
+            }
+        }
+        changed
+    }
+
     /// True when nothing of the instance remains on disk or in /dev/shm.
     pub fn is_gone(&self) -> bool {
         self.shm_files().is_empty() && !self.root.exists()

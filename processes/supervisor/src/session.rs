@@ -308,6 +308,8 @@ struct Watch {
     /// Nodes restarted since the session last looked (plans to resend, a robot to stop).
     restarted: Vec<NodeKind>,
     started: Instant,
+    instance: Instance,
+    last_hygiene: Instant,
 }
 
 impl Watch {
@@ -391,6 +393,11 @@ impl Watch {
         self.goal.update_connections()?;
         self.mapper_control.update_connections()?;
         self.keeper.refresh()?;
+        // New nodes (restarts) create new segments: keep them private, twice a second.
+        if self.last_hygiene.elapsed() > Duration::from_millis(500) {
+            self.last_hygiene = Instant::now();
+            self.instance.restrict_shm_permissions();
+        }
         Ok(())
     }
 
@@ -606,6 +613,8 @@ impl Session {
             running: false,
             restarted: Vec::new(),
             started: now,
+            instance: instance.clone(),
+            last_hygiene: now,
         };
         Ok(Session {
             ports,
@@ -672,6 +681,7 @@ impl Session {
             }
         }
         self.watch.running = true;
+        self.watch.instance.restrict_shm_permissions();
         tracing::info!(
             "all {} nodes ready after {:.2} s",
             self.watch.ready.len(),
