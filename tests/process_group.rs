@@ -40,11 +40,10 @@ fn two_groups_run_in_parallel_each_in_its_own_instance() {
         })
         .collect();
     let pids: Vec<u32> = children.iter().map(|c| c.id()).collect();
-    for (i, c) in children.iter_mut().enumerate() {
+    let errs: Vec<_> = children.iter_mut().map(stderr_reader).collect();
+    for (i, (c, err)) in children.iter_mut().zip(errs).enumerate() {
         let out = c.wait().unwrap();
-        let mut err = String::new();
-        use std::io::Read;
-        c.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+        let err = err.join().unwrap();
         assert!(out.success(), "group {i} failed: {err}");
     }
     for r in &reports {
@@ -81,6 +80,7 @@ fn a_killed_node_is_named_restarted_and_the_mission_goes_on() {
             report.to_str().unwrap(),
         ],
     );
+    let aisle_err = stderr_reader(&mut aisle);
     let pid = aisle.id();
     let nodes = wait_for_nodes(pid, Duration::from_secs(30));
     assert_eq!(nodes.len(), 5, "{nodes:?}");
@@ -100,14 +100,7 @@ fn a_killed_node_is_named_restarted_and_the_mission_goes_on() {
     let lidar = nodes.iter().find(|(n, _)| n == "lidar").unwrap().1;
     unsafe { libc::kill(lidar as i32, libc::SIGKILL) };
     let status = wait_exit(&mut aisle, Duration::from_secs(120)).expect("the supervisor exits");
-    let mut err = String::new();
-    use std::io::Read;
-    aisle
-        .stderr
-        .take()
-        .unwrap()
-        .read_to_string(&mut err)
-        .unwrap();
+    let err = aisle_err.join().unwrap();
     assert!(status.success(), "{err}");
     assert!(
         err.contains("node `lidar` was killed by signal 9 (SIGKILL): restarting it"),
@@ -134,16 +127,10 @@ fn a_node_that_always_crashes_at_start_ends_the_run_within_the_restart_limit() {
     let dir = TestDir::new("crashloop");
     let run_dir = dir.run_dir();
     let mut aisle = spawn(&run_dir, &["run", "--quiet", "--crash-on-start", "mapper"]);
+    let aisle_err = stderr_reader(&mut aisle);
     let pid = aisle.id();
     let status = wait_exit(&mut aisle, Duration::from_secs(60)).expect("the supervisor exits");
-    let mut err = String::new();
-    use std::io::Read;
-    aisle
-        .stderr
-        .take()
-        .unwrap()
-        .read_to_string(&mut err)
-        .unwrap();
+    let err = aisle_err.join().unwrap();
     assert_eq!(status.code(), Some(2), "{err}");
     assert!(
         err.contains(
@@ -165,6 +152,7 @@ fn sigint_stops_every_process_and_leaves_nothing_behind() {
     let dir = TestDir::new("sigint");
     let run_dir = dir.run_dir();
     let mut aisle = spawn(&run_dir, &["run", "--quiet", "--realtime"]);
+    let _stderr = stderr_reader(&mut aisle);
     let pid = aisle.id();
     let nodes = wait_for_nodes(pid, Duration::from_secs(30));
     assert_eq!(nodes.len(), 5, "{nodes:?}");
@@ -216,6 +204,7 @@ fn a_node_built_with_another_schema_is_refused() {
     .stderr(std::process::Stdio::piped())
     .spawn()
     .unwrap();
+    let child_err = stderr_reader(&mut child);
     let status = loop {
         info.update_connections().unwrap();
         if let Some(s) = child.try_wait().unwrap() {
@@ -223,14 +212,7 @@ fn a_node_built_with_another_schema_is_refused() {
         }
         std::thread::sleep(Duration::from_millis(20));
     };
-    let mut err = String::new();
-    use std::io::Read;
-    child
-        .stderr
-        .take()
-        .unwrap()
-        .read_to_string(&mut err)
-        .unwrap();
+    let err = child_err.join().unwrap();
     assert_eq!(status.code(), Some(1), "{err}");
     assert!(err.contains("schema mismatch"), "{err}");
     assert!(err.contains(&format!("{foreign:016x}")), "{err}");

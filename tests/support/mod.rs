@@ -198,3 +198,15 @@ pub fn run_report(name: &str, args: &[&str]) -> (Output, aisle_supervisor::repor
     assert!(run_dir_leftovers(&dir.run_dir()).is_empty());
     (out, serde_json::from_str(&text).unwrap())
 }
+
+/// Drains a child's stderr on a thread from now on (a full pipe would stall the child)
+/// and hands the text over when joined.
+pub fn stderr_reader(child: &mut Child) -> std::thread::JoinHandle<String> {
+    let mut pipe = child.stderr.take().expect("stderr is piped");
+    std::thread::spawn(move || {
+        use std::io::Read;
+        let mut text = String::new();
+        let _ = pipe.read_to_string(&mut text);
+        text
+    })
+}

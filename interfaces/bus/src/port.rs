@@ -47,21 +47,7 @@ impl<M: Message> Publisher<M> {
         source: NodeKind,
     ) -> Result<Self, BusError> {
         let qos = Qos::for_service(service);
-        let name: ServiceName = service
-            .try_into()
-            .map_err(|e| BusError::service(service, e))?;
-        let svc = node
-            .service_builder(&name)
-            .publish_subscribe::<M>()
-            .max_publishers(qos.max_publishers)
-            .max_subscribers(qos.max_subscribers)
-            .history_size(qos.history)
-            .subscriber_max_buffer_size(qos.buffer)
-            .subscriber_max_borrowed_samples(2)
-            .enable_safe_overflow(true)
-            .max_nodes(24)
-            .open_or_create()
-            .map_err(|e| BusError::service(service, e))?;
+        let svc = pubsub_service::<M>(node, service, &qos)?;
         let port = svc
             .publisher_builder()
             .max_loaned_samples(1)
@@ -193,21 +179,7 @@ pub struct Subscriber<M: Message> {
 impl<M: Message> Subscriber<M> {
     pub(crate) fn new(node: &Node<ipc::Service>, service: &'static str) -> Result<Self, BusError> {
         let qos = Qos::for_service(service);
-        let name: ServiceName = service
-            .try_into()
-            .map_err(|e| BusError::service(service, e))?;
-        let svc = node
-            .service_builder(&name)
-            .publish_subscribe::<M>()
-            .max_publishers(qos.max_publishers)
-            .max_subscribers(qos.max_subscribers)
-            .history_size(qos.history)
-            .subscriber_max_buffer_size(qos.buffer)
-            .subscriber_max_borrowed_samples(2)
-            .enable_safe_overflow(true)
-            .max_nodes(24)
-            .open_or_create()
-            .map_err(|e| BusError::service(service, e))?;
+        let svc = pubsub_service::<M>(node, service, &qos)?;
         let mut builder = svc.subscriber_builder().buffer_size(qos.buffer);
         if qos.history > 0 {
             builder = builder.history_request(qos.history);
@@ -276,6 +248,32 @@ impl<M: Message> Subscriber<M> {
             on_slice();
         }
     }
+}
+
+/// Opens (or creates) the publish/subscribe half of `service` with the QoS every process
+/// agrees on.
+fn pubsub_service<M: Message>(
+    node: &Node<ipc::Service>,
+    service: &str,
+    qos: &Qos,
+) -> Result<
+    iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, M, ()>,
+    BusError,
+> {
+    let name: ServiceName = service
+        .try_into()
+        .map_err(|e| BusError::service(service, e))?;
+    node.service_builder(&name)
+        .publish_subscribe::<M>()
+        .max_publishers(qos.max_publishers)
+        .max_subscribers(qos.max_subscribers)
+        .history_size(qos.history)
+        .subscriber_max_buffer_size(qos.buffer)
+        .subscriber_max_borrowed_samples(2)
+        .enable_safe_overflow(true)
+        .max_nodes(24)
+        .open_or_create()
+        .map_err(|e| BusError::service(service, e))
 }
 
 fn event_service(
