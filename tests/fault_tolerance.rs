@@ -93,7 +93,8 @@ fn realtime_without_its_controller_the_robot_stops_within_0_3_s() {
         &["--realtime", "--kill", "teb_controller@40"],
     );
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{err}");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}\n{err}");
     assert!(r.success, "{:?}", r.failure);
     assert_eq!(r.collisions, 0);
     assert_eq!(r.restarts, 1);

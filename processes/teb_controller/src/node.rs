@@ -54,9 +54,14 @@ impl MapCopy {
     }
 }
 
-/// A restarted controller takes its task back (the newest goal) and, when its last band
-/// belongs to that goal, the band itself. Returns the tick of that band.
-fn resume(bus: &Bus, teb: &mut TebController, task: &mut Task) -> Result<Option<u64>, NodeError> {
+/// A restarted controller takes its task back (the newest goal) and, in lockstep when
+/// its last band belongs to that goal, the band itself. Returns the tick of that band.
+fn resume(
+    bus: &Bus,
+    teb: &mut TebController,
+    task: &mut Task,
+    mode: TickMode,
+) -> Result<Option<u64>, NodeError> {
     let wait = Duration::from_secs(1);
     let goals = bus.subscriber::<ControllerGoal>(services::CONTROLLER_GOAL)?;
     let (WaitOutcome::Matched, Some(goal)) = goals.wait_for(wait, |_| true, || {})? else {
@@ -80,7 +85,10 @@ fn resume(bus: &Bus, teb: &mut TebController, task: &mut Task) -> Result<Option<
     let (WaitOutcome::Matched, Some(b)) = bands.wait_for(wait, |_| true, || {})? else {
         return Ok(None);
     };
-    if b.goal_id == task.goal_id && task.active {
+    // In realtime the robot has moved on since that band (and was stopped): start a fresh
+    // band from where it stands. In lockstep nothing moved, and resuming the band keeps
+    // the run identical to an undisturbed one.
+    if mode == TickMode::Lockstep && b.goal_id == task.goal_id && task.active {
         let n = (b.len as usize).min(MAX_COMMANDS);
         let band = Band {
             poses: b.poses[..n]
@@ -164,7 +172,7 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
     // only acknowledged, so the band is never stepped twice for one tick.
     let mut last_done: Option<u64> = None;
     if args.restarted {
-        last_done = resume(&bus, &mut teb, &mut task)?;
+        last_done = resume(&bus, &mut teb, &mut task, mode)?;
     }
     ticks.ready()?;
     let mut pose = Pose2::new(args.start[0], args.start[1], args.start[2]);
