@@ -111,15 +111,7 @@ fn a_killed_node_is_named_restarted_and_the_mission_goes_on() {
     assert_eq!(r["success"], true);
     assert_eq!(r["restarts"], 1);
     assert_eq!(r["collisions"], 0);
-    for (name, p) in &nodes {
-        assert!(!alive(*p), "{name} ({p}) is still alive");
-    }
-    assert!(shm_leftovers(pid).is_empty(), "{:?}", shm_leftovers(pid));
-    assert!(
-        run_dir_leftovers(&run_dir).is_empty(),
-        "{:?}",
-        run_dir_leftovers(&run_dir)
-    );
+    assert_group_gone(pid, &nodes, &run_dir);
 }
 
 #[test]
@@ -162,15 +154,7 @@ fn sigint_stops_every_process_and_leaves_nothing_behind() {
     let status =
         wait_exit(&mut aisle, Duration::from_secs(15)).expect("the supervisor exits after SIGINT");
     assert!(!status.success());
-    for (name, p) in &nodes {
-        assert!(!alive(*p), "{name} ({p}) is still alive");
-    }
-    assert!(shm_leftovers(pid).is_empty(), "{:?}", shm_leftovers(pid));
-    assert!(
-        run_dir_leftovers(&run_dir).is_empty(),
-        "{:?}",
-        run_dir_leftovers(&run_dir)
-    );
+    assert_group_gone(pid, &nodes, &run_dir);
 }
 
 #[test]

@@ -210,3 +210,17 @@ pub fn stderr_reader(child: &mut Child) -> std::thread::JoinHandle<String> {
         text
     })
 }
+
+/// After a run of supervisor `pid`: none of its nodes lives on, and nothing of its
+/// instances is left in /dev/shm or in the run directory.
+pub fn assert_group_gone(pid: u32, nodes: &[(String, u32)], run_dir: &Path) {
+    for (name, p) in nodes {
+        assert!(!alive(*p), "{name} ({p}) is still alive");
+    }
+    assert!(shm_leftovers(pid).is_empty(), "{:?}", shm_leftovers(pid));
+    assert!(
+        run_dir_leftovers(run_dir).is_empty(),
+        "{:?}",
+        run_dir_leftovers(run_dir)
+    );
+}
