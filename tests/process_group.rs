@@ -275,10 +275,9 @@ fn map_export_writes_the_static_map_as_a_ros_map() {
     assert!(expected.cells.iter().any(|&c| c != 0));
 }
 
-#[test]
-fn a_recorded_run_profiles_renders_and_survives_truncation() {
-    let dir = TestDir::new("record");
-    let mission = short_mission(&dir, "short.toml");
+/// The short mission recorded to `run.mcap` in `dir`.
+fn record_short_run(dir: &TestDir) -> (std::path::PathBuf, std::process::Output) {
+    let mission = short_mission(dir, "short.toml");
     let file = dir.path("run.mcap");
     let out = run(
         &dir.run_dir(),
@@ -291,18 +290,30 @@ fn a_recorded_run_profiles_renders_and_survives_truncation() {
             file.to_str().unwrap(),
         ],
     );
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{err}");
-    assert!(!err.contains("lost"), "the recorder lost samples: {err}");
-    // Every tick the simulator announced is in the file, once.
-    let rec = aisle_tools::reader::RecordFile::open(&file).unwrap();
-    let ticks = rec
+    (file, out)
+}
+
+/// Ticks recorded in a file.
+fn rec_ticks(file: &std::path::Path) -> usize {
+    aisle_tools::reader::RecordFile::open(file)
+        .unwrap()
         .raw_messages()
         .filter(|m| {
             m.as_ref()
                 .is_ok_and(|m| m.channel.topic == aisle_messages::services::TICK)
         })
-        .count();
+        .count()
+}
+
+#[test]
+fn a_recorded_run_profiles_renders_and_survives_truncation() {
+    let dir = TestDir::new("record");
+    let (file, out) = record_short_run(&dir);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(!err.contains("lost"), "the recorder lost samples: {err}");
+    // Every tick the simulator announced is in the file, once.
+    let ticks = rec_ticks(&file);
     assert!(ticks > 10, "{ticks} ticks recorded");
 
     let prof = run(&dir.run_dir(), &["profile", file.to_str().unwrap()]);
@@ -341,4 +352,119 @@ fn a_recorded_run_profiles_renders_and_survives_truncation() {
         text.contains("damaged") || text.contains("truncated"),
         "{text}"
     );
+}
+
+#[test]
+fn replay_check_finds_a_recorded_run_identical_and_a_changed_controller_divergent() {
+    let dir = TestDir::new("check");
+    let (file, out) = record_short_run(&dir);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = |o: &std::process::Output| {
+        format!(
+            "{}{}",
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        )
+    };
+    // Unchanged build, the recorded config: identical, every output kind compared.
+    let same = run(
+        &dir.run_dir(),
+        &["replay", file.to_str().unwrap(), "--check"],
+    );
+    let t = text(&same);
+    assert_eq!(same.status.code(), Some(0), "{t}");
+    assert!(t.contains("identical"), "{t}");
+    for service in [
+        "aisle/map/local",
+        "aisle/map/global",
+        "aisle/controller/trajectory",
+        "aisle/controller/band",
+    ] {
+        let line = t.lines().find(|l| l.contains(service)).unwrap_or_default();
+        assert!(line.contains(" 0 differ"), "{service}: {t}");
+        assert!(!line.contains(" 0 compared"), "{service}: {t}");
+    }
+    assert!(run_dir_leftovers(&dir.run_dir()).is_empty());
+
+    // The controller changed (a smoothness weight): the first divergence is named.
+    let changed = dir.path("changed");
+    std::fs::create_dir_all(&changed).unwrap();
+    for e in std::fs::read_dir(config_dir()).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_file() {
+            std::fs::copy(&p, changed.join(p.file_name().unwrap())).unwrap();
+        }
+    }
+    let teb = std::fs::read_to_string(changed.join("teb.toml")).unwrap();
+    let teb2 = teb.replace("smoothness = 0.2 ", "smoothness = 0.3 ");
+    assert_ne!(teb, teb2, "teb.toml has the smoothness weight");
+    std::fs::write(changed.join("teb.toml"), teb2).unwrap();
+    let diff = run(
+        &dir.run_dir(),
+        &[
+            "replay",
+            file.to_str().unwrap(),
+            "--check",
+            "--config-dir",
+            changed.to_str().unwrap(),
+        ],
+    );
+    let t = text(&diff);
+    assert_eq!(diff.status.code(), Some(1), "{t}");
+    let first = t
+        .lines()
+        .find(|l| l.contains("DIVERGED"))
+        .unwrap_or_default();
+    assert!(first.contains("aisle/controller/"), "{t}");
+    assert!(
+        first.contains("at tick") && first.contains("recorded"),
+        "{t}"
+    );
+    // The mapper did not change: its maps still match.
+    let local = t.lines().find(|l| l.contains("aisle/map/local")).unwrap();
+    assert!(local.contains(" 0 differ"), "{t}");
+
+    // Lockstep replay of the recorded local maps, goals and states into a new
+    // controller launched from this build: every recorded tick goes through.
+    let ticks = rec_ticks(&file);
+    let l = run(
+        &dir.run_dir(),
+        &[
+            "replay",
+            file.to_str().unwrap(),
+            "--lockstep",
+            "--wait-for",
+            "teb_controller",
+            "--topics",
+            "aisle/tick",
+            "aisle/robot_state",
+            "aisle/map/local",
+            "aisle/controller/goal",
+        ],
+    );
+    let t = text(&l);
+    assert_eq!(l.status.code(), Some(0), "{t}");
+    let published = t
+        .lines()
+        .find(|l| l.trim_start().starts_with("aisle/tick "))
+        .and_then(|l| l.split_whitespace().nth(1))
+        .and_then(|n| n.parse::<usize>().ok());
+    assert_eq!(published, Some(ticks), "{t}");
+
+    // A damaged recording: a clear answer, never a pass, never a panic.
+    let bytes = std::fs::read(&file).unwrap();
+    let cut = dir.path("cut.mcap");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let c = run(
+        &dir.run_dir(),
+        &["replay", cut.to_str().unwrap(), "--check"],
+    );
+    let t = text(&c);
+    assert_eq!(c.status.code(), Some(2), "{t}");
+    assert!(t.contains("damaged"), "{t}");
+    assert!(run_dir_leftovers(&dir.run_dir()).is_empty());
 }

@@ -7,8 +7,8 @@
 use aisle_messages::services as s;
 use aisle_messages::{
     ControllerBand, ControllerGoal, Heartbeat, InstanceInfo, MapperControl, Message, MissionStatus,
-    OccupancyGrid, PlanRequest, PlanResponse, PointCloud, RobotState, SimCommand, SimState, Tick,
-    TickDone, Trajectory, WorldTruth,
+    NodeKind, OccupancyGrid, PlanRequest, PlanResponse, PointCloud, RobotState, SimCommand,
+    SimState, Tick, TickDone, Trajectory, WorldTruth,
 };
 
 /// Calls `$m!(service_const, Type)` for every service of the catalogue. Used to build
@@ -145,6 +145,25 @@ pub fn service_info(service: &str) -> Option<ServiceInfo> {
     services().into_iter().find(|i| i.service == service)
 }
 
+/// The process that publishes `service` in a run (`TickDone` and heartbeats come from
+/// every process: `None`). The supervisor also republishes some state after a restart.
+pub fn producer(service: &str) -> Option<NodeKind> {
+    Some(match service {
+        s::TICK | s::ROBOT_STATE | s::WORLD_TRUTH | s::SIM_STATE => NodeKind::Simulator,
+        s::POINT_CLOUD => NodeKind::Lidar,
+        s::GLOBAL_MAP | s::LOCAL_MAP => NodeKind::Mapper,
+        s::PLAN_RESPONSE => NodeKind::GlobalPlanner,
+        s::TRAJECTORY | s::CONTROLLER_BAND => NodeKind::TebController,
+        s::INSTANCE
+        | s::SIM_COMMAND
+        | s::MAPPER_CONTROL
+        | s::PLAN_REQUEST
+        | s::CONTROLLER_GOAL
+        | s::MISSION_STATUS => NodeKind::Supervisor,
+        _ => return None,
+    })
+}
+
 fn fnv1a(hash: &mut u64, bytes: &[u8]) {
     for b in bytes {
         *hash ^= u64::from(*b);
@@ -215,6 +234,15 @@ mod tests {
         let g = service_info(s::GLOBAL_MAP).unwrap();
         let l = service_info(s::LOCAL_MAP).unwrap();
         assert_eq!(g.layout_hash, l.layout_hash);
+        for i in &all {
+            let kind = producer(i.service);
+            assert_eq!(
+                kind.is_none(),
+                i.service == s::TICK_DONE || i.service == s::HEARTBEAT,
+                "{}",
+                i.service
+            );
+        }
         let t = service_info(s::TICK).unwrap();
         assert_ne!(t.layout_hash, g.layout_hash);
         assert_eq!(t.size, 72);

@@ -2,6 +2,9 @@
 //!
 //! - [`record`]: the recorder node (`run_recorder`) writing one MCAP file per run;
 //! - [`replay`]: publishes a recorded file back into a live instance;
+//! - [`lockstep`]: replays a lockstep recording tick by tick into live consumers and
+//!   compares their outputs with the recorded ones ([`tick_batches`] regroups the file,
+//!   [`diff`] names the first differing field);
 //! - [`reader`]: reads a recorded file (raw payloads, attachments, damage reports);
 //! - [`profile`]: per-stage and end-to-end latency and jitter from a recorded file;
 //! - [`render`]: a top-view PNG of a run.
@@ -14,11 +17,14 @@
 pub mod aligned;
 pub mod canvas;
 pub mod catalog;
+pub mod diff;
+pub mod lockstep;
 pub mod profile;
 pub mod reader;
 pub mod record;
 pub mod render;
 pub mod replay;
+pub mod tick_batches;
 pub mod viewer;
 pub mod writer;
 

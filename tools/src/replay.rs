@@ -95,6 +95,18 @@ pub enum ReplayError {
     InvalidRate(f64),
     #[error(transparent)]
     Bus(#[from] BusError),
+    #[error(
+        "{file} was recorded in realtime: a lockstep replay needs a lockstep recording (`aisle run` without --realtime)"
+    )]
+    NotLockstep { file: PathBuf },
+    #[error("no acknowledgement of tick {tick} from {} after {waited_ms} ms", nodes.join(", "))]
+    NoAck {
+        nodes: Vec<&'static str>,
+        tick: u64,
+        waited_ms: u64,
+    },
+    #[error("{0}")]
+    ConsumerGone(String),
 }
 
 /// A recorded channel whose layout differs from this build's.
@@ -111,7 +123,7 @@ pub struct LayoutMismatch {
 }
 
 /// A publisher of recorded bytes, whatever its message type.
-trait RawSink {
+pub(crate) trait RawSink {
     fn publish(&mut self, bytes: &[u8]) -> Result<(), BusError>;
 }
 
@@ -121,7 +133,7 @@ impl<M: Message> RawSink for Publisher<M> {
     }
 }
 
-fn make_sink(bus: &Bus, service: &str) -> Result<Option<Box<dyn RawSink>>, BusError> {
+pub(crate) fn make_sink(bus: &Bus, service: &str) -> Result<Option<Box<dyn RawSink>>, BusError> {
     macro_rules! sink {
         ($svc:expr, $ty:ty) => {
             if service == $svc {
@@ -310,7 +322,7 @@ pub fn replay(opts: &ReplayOptions) -> Result<ReplaySummary, ReplayError> {
 }
 
 /// Sleeps until the monotonic clock reaches `due`; false when a stop was requested.
-fn sleep_until(due: u64) -> bool {
+pub(crate) fn sleep_until(due: u64) -> bool {
     loop {
         if signals::stop_requested() {
             return false;

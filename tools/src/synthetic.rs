@@ -37,6 +37,16 @@ pub fn trajectory_latency_ns(k: u64) -> u64 {
     5_000_000 + (k % 7) * 1_000_000
 }
 
+/// The process that publishes `service` in a real run.
+fn writer_of<M: Message>(service: &str, m: &M) -> NodeKind {
+    crate::catalog::producer(service).unwrap_or_else(|| {
+        let done = crate::aligned::AlignedBuf::from_bytes(message_bytes(m));
+        done.view::<TickDone>()
+            .and_then(|d| NodeKind::from_u32(d.node))
+            .unwrap_or(NodeKind::Supervisor)
+    })
+}
+
 /// One recorded sample.
 pub struct Sample {
     pub service: &'static str,
@@ -59,7 +69,9 @@ fn push<M: Message>(
 ) {
     seqs.0[slot] += 1;
     let tick_wall = WALL_START_NS + k * WALL_PERIOD_NS;
+    let source = writer_of(service, &*m);
     let h = m.header_mut();
+    h.source = source as u32;
     h.seq = seqs.0[slot];
     h.stamp_ns = k * DT_NS;
     h.tick = k;

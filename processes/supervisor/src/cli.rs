@@ -33,7 +33,7 @@ pub enum Command {
         command: MapCommand,
     },
     /// Publish a recorded run into a live process group (`--prefix`/`--root` of its
-    /// instance, as `aisle run` logs them).
+    /// instance, as `aisle run` logs them), or `--check` it against this build.
     Replay(ReplayArgs),
     /// Latency and jitter per stage and end to end from a recorded run.
     Profile {
@@ -115,10 +115,12 @@ pub struct RunArgs {
 #[derive(Debug, Clone, Args)]
 pub struct ReplayArgs {
     pub file: PathBuf,
-    #[arg(long)]
-    pub prefix: String,
-    #[arg(long)]
-    pub root: PathBuf,
+    /// Instance prefix of the live group to publish into (as `aisle run` logs it).
+    #[arg(long, required_unless_present_any = ["check", "lockstep"], requires = "root")]
+    pub prefix: Option<String>,
+    /// Instance root of the live group.
+    #[arg(long, required_unless_present_any = ["check", "lockstep"], requires = "prefix")]
+    pub root: Option<PathBuf>,
     /// Playback rate relative to the recording (omit with --fast for no pacing).
     #[arg(long, default_value_t = 1.0)]
     pub rate: f64,
@@ -131,6 +133,23 @@ pub struct ReplayArgs {
     /// Skip the first seconds of the recording.
     #[arg(long, default_value_t = 0.0)]
     pub start: f64,
+    /// Tick by tick: publish a tick's inputs, wait until the consumers (--wait-for)
+    /// acknowledged it, then the next (a lockstep recording only). Without
+    /// --prefix/--root the consumers are launched from this build in a new instance.
+    #[arg(long, conflicts_with_all = ["rate", "fast"])]
+    pub lockstep: bool,
+    /// With --lockstep: the nodes whose acknowledgements pace the replay.
+    #[arg(long, value_delimiter = ',', default_value = "mapper,teb_controller")]
+    pub wait_for: Vec<String>,
+    /// Regression check: launch a fresh mapper and controller, replay the recorded
+    /// sensor traffic and goals into them in lockstep, compare their outputs with the
+    /// recorded ones. Exit 0 identical, 1 diverged (first divergence printed), 2 error.
+    #[arg(long, conflicts_with_all = ["prefix", "root", "rate", "fast", "topics", "start", "lockstep"])]
+    pub check: bool,
+    /// With --check or a --lockstep that launches its nodes: the config directory they
+    /// use (default: the config files attached to the recording).
+    #[arg(long, conflicts_with = "prefix")]
+    pub config_dir: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]

@@ -10,6 +10,7 @@
 //! - [`check`]: validation of every file in `config/`.
 //! - [`nodes`]: `aisle node <name>`, which runs one process's node adapter.
 //! - [`records`]: `aisle replay`, `profile` and `render` of MCAP recordings.
+//! - [`replay_check`]: `aisle replay --check`, the mapper and controller against a recording.
 
 pub mod budgets;
 pub mod check;
@@ -18,6 +19,7 @@ pub mod launch;
 pub mod mission;
 pub mod nodes;
 pub mod records;
+pub mod replay_check;
 pub mod report;
 pub mod restart;
 pub mod session;

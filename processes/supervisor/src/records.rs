@@ -2,9 +2,14 @@
 //! tools in aisle-tools (which hold the formats and the algorithms).
 
 use crate::cli::ReplayArgs;
-use aisle_bus::Instance;
+use aisle_bus::{Bus, Instance};
+use aisle_messages::NodeKind;
+use aisle_tools::RecordFile;
+use aisle_tools::lockstep::{LockstepOptions, LockstepPorts};
+use std::collections::BTreeMap;
 use std::path::Path;
 use std::process::ExitCode;
+use std::time::Duration;
 
 fn fail(e: impl std::fmt::Display) -> ExitCode {
     eprintln!("error: {e}");
@@ -12,15 +17,27 @@ fn fail(e: impl std::fmt::Display) -> ExitCode {
 }
 
 pub fn replay(a: &ReplayArgs) -> ExitCode {
-    let instance = match Instance::new(a.prefix.clone(), a.root.clone()) {
-        Ok(i) => i,
-        Err(e) => return fail(e),
-    };
-    if !(a.rate.is_finite() && a.rate > 0.0) {
-        return fail(format!("--rate must be positive, got {}", a.rate));
+    if a.check {
+        return replay_check(a);
     }
     if !(a.start.is_finite() && a.start >= 0.0) {
         return fail(format!("--start must be >= 0 seconds, got {}", a.start));
+    }
+    let instance = match (a.prefix.clone(), a.root.clone()) {
+        (Some(prefix), Some(root)) => match Instance::new(prefix, root) {
+            Ok(i) => Some(i),
+            Err(e) => return fail(e),
+        },
+        _ => None,
+    };
+    if a.lockstep {
+        return replay_lockstep(a, instance);
+    }
+    let Some(instance) = instance else {
+        return fail("--prefix and --root name the live instance to replay into");
+    };
+    if !(a.rate.is_finite() && a.rate > 0.0) {
+        return fail(format!("--rate must be positive, got {}", a.rate));
     }
     let mut opts = aisle_tools::replay::ReplayOptions::new(&a.file, instance);
     opts.rate = (!a.fast).then_some(a.rate);
@@ -30,18 +47,134 @@ pub fn replay(a: &ReplayArgs) -> ExitCode {
         Ok(s) => {
             let total: u64 = s.published.values().sum();
             println!("replayed {total} messages from {}", a.file.display());
-            for (service, n) in &s.published {
-                println!("  {service:<28} {n}");
-            }
-            if let Some(t) = &s.truncated {
-                println!("the file is damaged: replayed what could be read; {t}");
-            }
-            if s.stopped {
-                println!("stopped early (interrupted)");
-            }
+            print_replayed(&s.published, s.truncated.as_deref(), s.stopped);
             ExitCode::SUCCESS
         }
         Err(e) => fail(e),
+    }
+}
+
+/// Samples published per service, and how the replay ended if not at the file's end.
+fn print_replayed(published: &BTreeMap<String, u64>, truncated: Option<&str>, stopped: bool) {
+    for (service, n) in published {
+        println!("  {service:<28} {n}");
+    }
+    if let Some(t) = truncated {
+        println!("the file is damaged: replayed what could be read; {t}");
+    }
+    if stopped {
+        println!("stopped early (interrupted)");
+    }
+}
+
+/// `--lockstep`: tick by tick, paced by the `--wait-for` nodes, into the live instance
+/// named by `--prefix`/`--root`, or into those nodes launched here.
+fn replay_lockstep(a: &ReplayArgs, instance: Option<Instance>) -> ExitCode {
+    let mut consumers = Vec::new();
+    for name in &a.wait_for {
+        match NodeKind::from_name(name).filter(|k| NodeKind::LAUNCHED.contains(k)) {
+            Some(k) => consumers.push(k),
+            None => return fail(format!("--wait-for: no node named `{name}`")),
+        }
+    }
+    let file = match RecordFile::open(&a.file) {
+        Ok(f) => f,
+        Err(e) => return fail(e),
+    };
+    let publish = if a.topics.is_empty() {
+        LockstepOptions::default_publish(&file, &consumers)
+    } else {
+        a.topics.clone()
+    };
+    let start_offset_ns = (a.start * 1e9).round() as u64;
+    let result = match instance {
+        Some(instance) => {
+            let opts = LockstepOptions {
+                file: a.file.clone(),
+                publish,
+                consumers,
+                compare: Vec::new(),
+                start_offset_ns,
+                ack_timeout: Duration::from_secs(60),
+            };
+            (|| -> anyhow::Result<_> {
+                let (bus, _) = Bus::join(&instance, NodeKind::Replay, Duration::from_secs(10))?;
+                let mut ports = LockstepPorts::open(&bus, &file, &opts)?;
+                // Let the live subscribers connect to the new publishers.
+                std::thread::sleep(Duration::from_millis(200));
+                Ok(aisle_tools::lockstep::replay_lockstep(
+                    &mut ports,
+                    &file,
+                    &opts,
+                    &mut || Ok(()),
+                )?)
+            })()
+        }
+        None => {
+            let plan = crate::replay_check::FreshGroup {
+                nodes: consumers,
+                publish,
+                compare: Vec::new(),
+                start_offset_ns,
+            };
+            crate::replay_check::replay_into_fresh_group(&a.file, a.config_dir.as_deref(), &plan)
+        }
+    };
+    match result {
+        Ok(s) => {
+            let total: u64 = s.published.values().sum();
+            println!(
+                "replayed {} ticks ({total} messages) from {} in lockstep",
+                s.ticks,
+                a.file.display()
+            );
+            print_replayed(&s.published, s.truncated.as_deref(), s.stopped);
+            ExitCode::SUCCESS
+        }
+        Err(e) => fail(format!("{e:#}")),
+    }
+}
+
+/// `--check`: exit 0 identical, 1 diverged, 2 the check could not run.
+fn replay_check(a: &ReplayArgs) -> ExitCode {
+    let summary = match crate::replay_check::check(&a.file, a.config_dir.as_deref()) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            return ExitCode::from(2);
+        }
+    };
+    println!(
+        "replayed {} ticks of {} into a live mapper and teb_controller",
+        summary.ticks,
+        a.file.display()
+    );
+    for (service, n) in &summary.compared {
+        let bad = summary.diverged.get(service).copied().unwrap_or(0);
+        println!("  {service:<28} {n:>5} compared  {bad:>5} differ");
+    }
+    if let Some(d) = &summary.first {
+        let total: u64 = summary.diverged.values().sum();
+        println!("DIVERGED: {total} samples differ; first: {d}");
+        return ExitCode::from(1);
+    }
+    // Identical so far, but the whole recording was not checked: not a pass.
+    if let Some(t) = &summary.truncated {
+        eprintln!("error: the file is damaged: what could be read matches; {t}");
+        return ExitCode::from(2);
+    }
+    if summary.stopped {
+        eprintln!("error: stopped early (interrupted)");
+        return ExitCode::from(2);
+    }
+    if summary.identical() {
+        println!("identical: every compared output matches the recording");
+        ExitCode::SUCCESS
+    } else {
+        eprintln!(
+            "error: nothing was compared: the recording holds no mapper or controller outputs"
+        );
+        ExitCode::from(2)
     }
 }
 

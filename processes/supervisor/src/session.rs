@@ -57,7 +57,7 @@ pub struct RunOutcome {
 
 /// Where instances live: `$AISLE_RUN_DIR`, else `<tmp>/aisle` (`/tmp/aisle` when the
 /// temporary directory's path is too long for iceoryx2's socket paths).
-fn run_base_dir() -> PathBuf {
+pub(crate) fn run_base_dir() -> PathBuf {
     if let Some(d) = std::env::var_os("AISLE_RUN_DIR") {
         return PathBuf::from(d);
     }

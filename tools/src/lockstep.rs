@@ -1,0 +1,398 @@
+//! Lockstep replay: a recorded lockstep run published again tick by tick, each tick only
+//! once the live consumers acknowledged the one before, as the simulator would have
+//! waited for them. With a list of outputs it is also a regression check: after each
+//! tick the consumers' outputs are compared, field by field, with the recorded ones.
+//!
+//! Same inputs in the same order give a deterministic node the same outputs, so on an
+//! unchanged build every compared payload is identical except the wall-clock fields
+//! (`diff::WALL_CLOCK_FIELDS`). The first difference is reported by service, tick,
+//! simulated time and field; the replay goes on to the end and counts the rest.
+//!
+//! Knows the bus and the file; the caller brings the live consumers (it may have
+//! launched them) and a liveness probe for them.
+
+use crate::catalog::service_info;
+use crate::diff::{WALL_CLOCK_FIELDS, first_difference};
+use crate::reader::RecordFile;
+use crate::replay::{RawSink, ReplayError, check_channel, make_sink};
+use crate::tick_batches::{BatchOptions, TickBatch, TickBatches};
+use aisle_bus::{Bus, BusError, Qos, Subscriber, WaitOutcome, message_bytes, signals};
+use aisle_messages::{Message, NodeKind, TickDone, services as s};
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+#[derive(Debug, Clone)]
+pub struct LockstepOptions {
+    pub file: PathBuf,
+    /// Services published from the file.
+    pub publish: Vec<String>,
+    /// Live nodes whose acknowledgement of a tick lets the next one go (those that
+    /// acknowledged that tick in the recording).
+    pub consumers: Vec<NodeKind>,
+    /// Outputs compared with the recording, with the node that writes each; empty for a
+    /// plain replay.
+    pub compare: Vec<(String, NodeKind)>,
+    /// Skip this much simulated time; the newest sample of each state service (history
+    /// > 0) from the skipped part is published first, as a late subscriber would get it.
+    pub start_offset_ns: u64,
+    /// How long one tick may wait for its acknowledgements.
+    pub ack_timeout: Duration,
+}
+
+impl LockstepOptions {
+    /// The services a lockstep replay publishes by default: every recorded one except
+    /// the bus's own (announcement, heartbeats, acknowledgements) and those the
+    /// consumers produce themselves.
+    pub fn default_publish(file: &RecordFile, consumers: &[NodeKind]) -> Vec<String> {
+        let mut out: Vec<String> = Vec::new();
+        for m in file.raw_messages() {
+            let Ok(m) = m else { break };
+            let t = m.channel.topic.as_str();
+            if out.iter().any(|o| o == t) || [s::INSTANCE, s::HEARTBEAT, s::TICK_DONE].contains(&t)
+            {
+                continue;
+            }
+            if crate::catalog::producer(t).is_some_and(|p| consumers.contains(&p)) {
+                continue;
+            }
+            out.push(t.to_string());
+        }
+        out.sort();
+        out
+    }
+}
+
+/// Where a live output first differed from the recording.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Divergence {
+    pub service: String,
+    pub tick: u64,
+    /// Simulated time of the tick.
+    pub stamp_ns: u64,
+    /// The field and both values, or how the sample counts differ.
+    pub detail: String,
+}
+
+impl std::fmt::Display for Divergence {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} at tick {} (t = {:.1} s): {}",
+            self.service,
+            self.tick,
+            self.stamp_ns as f64 * 1e-9,
+            self.detail
+        )
+    }
+}
+
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LockstepSummary {
+    /// Ticks replayed.
+    pub ticks: u64,
+    /// Samples published, per service.
+    pub published: BTreeMap<String, u64>,
+    /// Samples compared, per service (and `aisle/tick_done` statuses).
+    pub compared: BTreeMap<String, u64>,
+    /// Samples that differed, per service.
+    pub diverged: BTreeMap<String, u64>,
+    /// The first difference, in replay order.
+    pub first: Option<Divergence>,
+    /// Where a damaged file stops being readable.
+    pub truncated: Option<String>,
+    /// SIGINT/SIGTERM ended the replay early.
+    pub stopped: bool,
+}
+
+impl LockstepSummary {
+    pub fn identical(&self) -> bool {
+        self.diverged.values().all(|n| *n == 0)
+            && self.first.is_none()
+            && self.compared.values().sum::<u64>() > 0
+    }
+
+    fn diverge(&mut self, batch: &TickBatch, service: &str, detail: String) {
+        *self.diverged.entry(service.to_string()).or_default() += 1;
+        if self.first.is_none() {
+            self.first = Some(Divergence {
+                service: service.to_string(),
+                tick: batch.tick,
+                stamp_ns: batch.stamp_ns,
+                detail,
+            });
+        }
+    }
+}
+
+/// Raw payloads received on one service, whatever its type.
+trait RawSource {
+    /// Appends the payload of every sample waiting that `writer` published.
+    fn drain(&self, writer: NodeKind, out: &mut Vec<Vec<u8>>) -> Result<(), BusError>;
+}
+
+impl<M: Message> RawSource for Subscriber<M> {
+    fn drain(&self, writer: NodeKind, out: &mut Vec<Vec<u8>>) -> Result<(), BusError> {
+        while let Some(sample) = self.receive()? {
+            if Message::header(&*sample).source == writer as u32 {
+                out.push(message_bytes(&*sample).to_vec());
+            }
+        }
+        Ok(())
+    }
+}
+
+fn make_source(bus: &Bus, service: &str) -> Result<Option<Box<dyn RawSource>>, BusError> {
+    macro_rules! source {
+        ($svc:expr, $ty:ty) => {
+            if service == $svc {
+                return Ok(Some(Box::new(bus.subscriber::<$ty>($svc)?)));
+            }
+        };
+    }
+    crate::for_each_service!(source);
+    Ok(None)
+}
+
+/// Ports of a lockstep replay, created before any consumer starts so that nothing it
+/// publishes is missed.
+pub struct LockstepPorts {
+    sinks: BTreeMap<String, Box<dyn RawSink>>,
+    sources: Vec<(String, NodeKind, Box<dyn RawSource>)>,
+    acks: Subscriber<TickDone>,
+}
+
+impl LockstepPorts {
+    /// Checks every published and compared service of `file` against this build (a
+    /// different layout is refused naming the service) and opens the ports.
+    pub fn open(
+        bus: &Bus,
+        file: &RecordFile,
+        opts: &LockstepOptions,
+    ) -> Result<LockstepPorts, ReplayError> {
+        let recorded = recorded_channels(file);
+        let path = file.path();
+        if let Some(mode) = recorded_mode(file)
+            && mode != "0"
+        {
+            return Err(ReplayError::NotLockstep {
+                file: path.to_path_buf(),
+            });
+        }
+        let mut sinks = BTreeMap::new();
+        for t in &opts.publish {
+            if t == s::INSTANCE || t == s::TICK_DONE || t == s::HEARTBEAT {
+                return Err(ReplayError::NotReplayable(t.clone()));
+            }
+            if service_info(t).is_none() {
+                return Err(ReplayError::UnknownTopic {
+                    file: path.to_path_buf(),
+                    topic: t.clone(),
+                });
+            }
+            let Some(c) = recorded.get(t) else {
+                return Err(ReplayError::TopicNotRecorded {
+                    file: path.to_path_buf(),
+                    topic: t.clone(),
+                });
+            };
+            check_channel(path, c)?;
+            if let Some(sink) = make_sink(bus, t)? {
+                sinks.insert(t.clone(), sink);
+            }
+        }
+        let mut sources = Vec::new();
+        for (t, node) in &opts.compare {
+            let Some(c) = recorded.get(t) else {
+                return Err(ReplayError::TopicNotRecorded {
+                    file: path.to_path_buf(),
+                    topic: t.clone(),
+                });
+            };
+            check_channel(path, c)?;
+            if let Some(src) = make_source(bus, t)? {
+                sources.push((t.clone(), *node, src));
+            }
+        }
+        Ok(LockstepPorts {
+            sinks,
+            sources,
+            acks: bus.subscriber(s::TICK_DONE)?,
+        })
+    }
+}
+
+fn recorded_channels(file: &RecordFile) -> BTreeMap<String, crate::reader::ChannelInfo> {
+    let mut out = BTreeMap::new();
+    for m in file.raw_messages() {
+        let Ok(m) = m else { break };
+        out.entry(m.channel.topic.clone())
+            .or_insert_with(|| (*m.channel).clone());
+    }
+    out
+}
+
+/// The clock mode the recorder wrote into the file's `aisle` metadata (`"0"` lockstep).
+fn recorded_mode(file: &RecordFile) -> Option<String> {
+    let meta = file.metadata().ok()?;
+    meta.into_iter()
+        .find(|(name, _)| name == "aisle")
+        .and_then(|(_, m)| m.get("mode").cloned())
+}
+
+/// Replays `file` tick by tick through `ports`; `alive` is asked while waiting whether
+/// the consumers still run (an `Err` names the one that died and ends the replay).
+pub fn replay_lockstep(
+    ports: &mut LockstepPorts,
+    file: &RecordFile,
+    opts: &LockstepOptions,
+    alive: &mut dyn FnMut() -> Result<(), String>,
+) -> Result<LockstepSummary, ReplayError> {
+    let batch_opts = BatchOptions {
+        publish: opts.publish.clone(),
+        outputs: opts.compare.clone(),
+    };
+    let mut batches = TickBatches::new(file, batch_opts);
+    let mut summary = LockstepSummary::default();
+    let mut first_stamp = None;
+    let mut latched: BTreeMap<String, Vec<u8>> = BTreeMap::new();
+    let mut latched_done = opts.start_offset_ns == 0;
+    let mut live: Vec<Vec<u8>> = Vec::new();
+    for batch in batches.by_ref() {
+        if signals::stop_requested() {
+            summary.stopped = true;
+            break;
+        }
+        let first = *first_stamp.get_or_insert(batch.stamp_ns);
+        if batch.stamp_ns < first.saturating_add(opts.start_offset_ns) {
+            for m in &batch.publish {
+                if Qos::for_service(&m.channel.topic).history > 0 {
+                    latched.insert(m.channel.topic.clone(), m.data.clone());
+                }
+            }
+            continue;
+        }
+        if !latched_done {
+            latched_done = true;
+            for (topic, data) in std::mem::take(&mut latched) {
+                publish(ports, &mut summary, &topic, &data)?;
+            }
+        }
+        for m in &batch.publish {
+            publish(ports, &mut summary, &m.channel.topic, &m.data)?;
+        }
+        let pending: Vec<(NodeKind, u32)> = batch
+            .acked
+            .iter()
+            .filter(|(n, _)| opts.consumers.contains(n))
+            .copied()
+            .collect();
+        for (node, status) in wait_acks(ports, &batch, pending, opts.ack_timeout, alive)? {
+            if opts.compare.is_empty() {
+                continue;
+            }
+            let recorded = batch.acked.iter().find(|(n, _)| *n == node).map(|a| a.1);
+            *summary
+                .compared
+                .entry(s::TICK_DONE.to_string())
+                .or_default() += 1;
+            if recorded != Some(status) {
+                summary.diverge(
+                    &batch,
+                    s::TICK_DONE,
+                    format!(
+                        "{} status: recorded {}, live {status}",
+                        node.name(),
+                        recorded.map_or("none".to_string(), |r| r.to_string())
+                    ),
+                );
+            }
+        }
+        for (service, writer, source) in &ports.sources {
+            live.clear();
+            source.drain(*writer, &mut live)?;
+            let recorded: Vec<&Vec<u8>> = batch
+                .outputs
+                .iter()
+                .filter(|m| &m.channel.topic == service)
+                .map(|m| &m.data)
+                .collect();
+            let type_name = service_info(service).map_or("", |i| i.type_name);
+            *summary.compared.entry(service.clone()).or_default() +=
+                recorded.len().max(live.len()) as u64;
+            if recorded.len() != live.len() {
+                summary.diverge(
+                    &batch,
+                    service,
+                    format!(
+                        "recorded {} samples, live {} (from {})",
+                        recorded.len(),
+                        live.len(),
+                        writer.name()
+                    ),
+                );
+                continue;
+            }
+            for (r, l) in recorded.iter().zip(&live) {
+                if let Some(d) = first_difference(type_name, r, l, &WALL_CLOCK_FIELDS) {
+                    summary.diverge(&batch, service, d.to_string());
+                }
+            }
+        }
+        summary.ticks += 1;
+    }
+    if let Some(e) = batches.take_failure() {
+        summary.truncated = Some(e.to_string());
+    }
+    Ok(summary)
+}
+
+fn publish(
+    ports: &mut LockstepPorts,
+    summary: &mut LockstepSummary,
+    topic: &str,
+    data: &[u8],
+) -> Result<(), ReplayError> {
+    if let Some(sink) = ports.sinks.get_mut(topic) {
+        sink.publish(data)?;
+        *summary.published.entry(topic.to_string()).or_default() += 1;
+    }
+    Ok(())
+}
+
+/// Waits until every node in `pending` acknowledged `batch.tick`; returns the statuses
+/// they reported.
+fn wait_acks(
+    ports: &LockstepPorts,
+    batch: &TickBatch,
+    mut pending: Vec<(NodeKind, u32)>,
+    timeout: Duration,
+    alive: &mut dyn FnMut() -> Result<(), String>,
+) -> Result<Vec<(NodeKind, u32)>, ReplayError> {
+    let mut got = Vec::with_capacity(pending.len());
+    let started = Instant::now();
+    while !pending.is_empty() {
+        let waited = started.elapsed();
+        if waited >= timeout {
+            return Err(ReplayError::NoAck {
+                nodes: pending.iter().map(|(n, _)| n.name()).collect(),
+                tick: batch.tick,
+                waited_ms: waited.as_millis() as u64,
+            });
+        }
+        let (outcome, sample) = ports.acks.wait_for(
+            (timeout - waited).min(Duration::from_millis(100)),
+            |d| d.header.tick == batch.tick && pending.iter().any(|(n, _)| *n as u32 == d.node),
+            || {},
+        )?;
+        if let (WaitOutcome::Matched, Some(d)) = (outcome, sample) {
+            pending.retain(|(n, _)| *n as u32 != d.node);
+            if let Some(node) = NodeKind::from_u32(d.node) {
+                got.push((node, d.status));
+            }
+        } else {
+            alive().map_err(ReplayError::ConsumerGone)?;
+        }
+    }
+    Ok(got)
+}
