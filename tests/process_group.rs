@@ -468,3 +468,71 @@ fn replay_check_finds_a_recorded_run_identical_and_a_changed_controller_divergen
     assert!(t.contains("damaged"), "{t}");
     assert!(run_dir_leftovers(&dir.run_dir()).is_empty());
 }
+
+#[test]
+fn a_recorder_attached_to_a_running_group_records_until_the_group_ends() {
+    let dir = TestDir::new("attach");
+    let mission = short_mission(&dir, "short.toml");
+    let run_dir = dir.run_dir();
+    let mut group = spawn(
+        &run_dir,
+        &[
+            "run",
+            "--realtime",
+            "--quiet",
+            "--mission",
+            mission.to_str().unwrap(),
+        ],
+    );
+    let group_err = stderr_reader(&mut group);
+    // The group's instance is the one directory that appears in the run directory.
+    let deadline = std::time::Instant::now() + Duration::from_secs(30);
+    let prefix = loop {
+        let found = std::fs::read_dir(&run_dir)
+            .unwrap()
+            .filter_map(Result::ok)
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .next();
+        if let Some(p) = found {
+            break p;
+        }
+        assert!(std::time::Instant::now() < deadline, "no instance appeared");
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let file = dir.path("attached.mcap");
+    let root = run_dir.join(&prefix);
+    let rec = run(
+        &run_dir,
+        &[
+            "record",
+            "--prefix",
+            &prefix,
+            "--root",
+            root.to_str().unwrap(),
+            "-o",
+            file.to_str().unwrap(),
+            "--idle-stop",
+            "1",
+        ],
+    );
+    let status = wait_exit(&mut group, Duration::from_secs(120)).expect("the run ends");
+    let err = group_err.join().unwrap();
+    assert!(status.success(), "{err}");
+    let text = String::from_utf8_lossy(&rec.stdout);
+    assert!(
+        rec.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&rec.stderr)
+    );
+    assert!(text.contains("wrote"), "{text}");
+    let ticks = rec_ticks(&file);
+    assert!(ticks > 10, "{ticks} ticks recorded");
+    let f = aisle_tools::reader::RecordFile::open(&file).unwrap();
+    assert!(f.is_finalised());
+    assert!(
+        f.attachments()
+            .unwrap()
+            .iter()
+            .any(|a| a.name == "teb.toml")
+    );
+}

@@ -37,6 +37,9 @@ pub struct RecorderOptions {
     pub flush_period: Duration,
     /// Longest sleep while no data arrives.
     pub poll_period: Duration,
+    /// Finalise once no other process published anything for this long (a recorder
+    /// attached to a running group ends with it); `None`: only on a stop request.
+    pub idle_stop: Option<Duration>,
 }
 
 impl Default for RecorderOptions {
@@ -47,6 +50,7 @@ impl Default for RecorderOptions {
             queue_bytes: 512 * 1024 * 1024,
             flush_period: Duration::from_secs(1),
             poll_period: Duration::from_millis(1),
+            idle_stop: None,
         }
     }
 }
@@ -296,6 +300,8 @@ pub fn run_recorder_with(
 /// Offsets in a `TickDone` payload: the header's tick and the acknowledging node.
 const TICK_DONE_TICK_AT: usize = 16;
 const TICK_DONE_NODE_AT: usize = 48;
+/// Offset of `Header.source` in every payload.
+const HEADER_SOURCE_AT: usize = std::mem::offset_of!(aisle_messages::Header, source);
 
 fn le_u64(b: &[u8], at: usize) -> Option<u64> {
     b.get(at..at + 8)
@@ -329,6 +335,7 @@ fn drain_loop(
     // everything before it is drained, the recorder acknowledges k too, and a lockstep
     // simulator that waits for it loses nothing to the recorder.
     let (mut seen_tick, mut acked_tick): (Option<u64>, Option<u64>) = (None, None);
+    let mut last_traffic = std::time::Instant::now();
     loop {
         if signals::stop_requested() {
             return Err(BusError::StopRequested.into());
@@ -347,6 +354,9 @@ fn drain_loop(
                 let log_time = clock::monotonic_ns();
                 let mut job = None;
                 let got = src.next_bytes(&mut |bytes| {
+                    if le_u32(bytes, HEADER_SOURCE_AT) != Some(NodeKind::Recorder as u32) {
+                        last_traffic = std::time::Instant::now();
+                    }
                     if Some(i) == tick_done
                         && le_u32(bytes, TICK_DONE_NODE_AT) == Some(NodeKind::Supervisor as u32)
                         && let Some(t) = le_u64(bytes, TICK_DONE_TICK_AT)
@@ -416,6 +426,15 @@ fn drain_loop(
                         m.status = StageStatus::Done as u32;
                     },
                 )?;
+            }
+            if let Some(idle) = options.idle_stop
+                && last_traffic.elapsed() >= idle
+            {
+                tracing::info!(
+                    "recorder: nothing published for {:.1} s; the group has ended, finalising",
+                    idle.as_secs_f64()
+                );
+                return Ok(());
             }
             std::thread::sleep(options.poll_period);
         }

@@ -35,6 +35,9 @@ pub enum Command {
     /// Publish a recorded run into a live process group (`--prefix`/`--root` of its
     /// instance, as `aisle run` logs them), or `--check` it against this build.
     Replay(ReplayArgs),
+    /// Record a running group (`--prefix`/`--root` as `aisle run` logs them) to an MCAP
+    /// file, until Ctrl-C or until the group has been silent for --idle-stop seconds.
+    Record(RecordArgs),
     /// Latency and jitter per stage and end to end from a recorded run.
     Profile {
         file: PathBuf,
@@ -153,6 +156,27 @@ pub struct ReplayArgs {
 }
 
 #[derive(Debug, Args)]
+pub struct RecordArgs {
+    #[arg(long)]
+    pub prefix: String,
+    #[arg(long)]
+    pub root: PathBuf,
+    /// The MCAP file to write.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// The group's config directory (attached to the file); default `config/`.
+    #[arg(long)]
+    pub config_dir: Option<PathBuf>,
+    /// The group's mission file, for the run metadata (start pose, tick rate); default
+    /// the config directory's `mission.toml`.
+    #[arg(long)]
+    pub mission: Option<PathBuf>,
+    /// Finalise after this many seconds without traffic (the group ended).
+    #[arg(long, default_value_t = 5.0)]
+    pub idle_stop: f64,
+}
+
+#[derive(Debug, Args)]
 pub struct NodeCmd {
     pub name: String,
     #[arg(long)]
@@ -255,6 +279,11 @@ pub fn main() -> ExitCode {
         Command::Replay(a) => {
             init_logging("info");
             records::replay(&a)
+        }
+        Command::Record(a) => {
+            init_logging("info");
+            let dir = config_dir(a.config_dir.as_deref());
+            records::record(&a, &dir)
         }
         Command::Profile {
             file,

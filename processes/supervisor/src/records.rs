@@ -1,11 +1,12 @@
-//! `aisle replay`, `aisle profile` and `aisle render`: the command-line side of the MCAP
+//! `aisle record`, `aisle replay`, `aisle profile` and `aisle render`: the command-line side of the MCAP
 //! tools in aisle-tools (which hold the formats and the algorithms).
 
-use crate::cli::ReplayArgs;
-use aisle_bus::{Bus, Instance};
+use crate::cli::{RecordArgs, ReplayArgs};
+use crate::mission::MissionConfig;
+use aisle_bus::{Bus, Instance, NodeArgs};
 use aisle_messages::NodeKind;
-use aisle_tools::RecordFile;
 use aisle_tools::lockstep::{LockstepOptions, LockstepPorts};
+use aisle_tools::{RecordFile, RecorderOptions};
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::process::ExitCode;
@@ -48,6 +49,64 @@ pub fn replay(a: &ReplayArgs) -> ExitCode {
             let total: u64 = s.published.values().sum();
             println!("replayed {total} messages from {}", a.file.display());
             print_replayed(&s.published, s.truncated.as_deref(), s.stopped);
+            ExitCode::SUCCESS
+        }
+        Err(e) => fail(e),
+    }
+}
+
+/// `aisle record`: the recorder node attached to a running group, from this process.
+pub fn record(a: &RecordArgs, config_dir: &Path) -> ExitCode {
+    if !(a.idle_stop.is_finite() && a.idle_stop > 0.0) {
+        return fail(format!(
+            "--idle-stop must be positive seconds, got {}",
+            a.idle_stop
+        ));
+    }
+    let instance = match Instance::new(a.prefix.clone(), a.root.clone()) {
+        Ok(i) => i,
+        Err(e) => return fail(e),
+    };
+    let mission_path = a
+        .mission
+        .clone()
+        .unwrap_or_else(|| config_dir.join("mission.toml"));
+    let mission = aisle_config::scene::Scene::load(&config_dir.join("warehouse.toml"))
+        .map_err(anyhow::Error::from)
+        .and_then(|scene| Ok(MissionConfig::load(&mission_path, &scene)?));
+    let mission = match mission {
+        Ok(m) => m,
+        Err(e) => return fail(format!("{e:#}")),
+    };
+    let args = NodeArgs {
+        instance,
+        config_dir: config_dir.to_path_buf(),
+        dt_ns: mission.dt_ns(),
+        controller_every: mission.controller_every(),
+        start: mission.start,
+        lidar_off: false,
+        restarted: false,
+        recorded: false,
+    };
+    let options = RecorderOptions {
+        idle_stop: Some(Duration::from_secs_f64(a.idle_stop)),
+        ..RecorderOptions::default()
+    };
+    match aisle_tools::run_recorder_with(&args, &a.output, &options) {
+        Ok(s) => {
+            let total: u64 = s.written.values().sum();
+            println!(
+                "wrote {} samples and {} viewer messages to {}",
+                total,
+                s.viewer_messages,
+                s.path.display()
+            );
+            if s.lost() > 0 {
+                println!(
+                    "lost {} samples (a recorder not launched with the group is not waited for)",
+                    s.lost()
+                );
+            }
             ExitCode::SUCCESS
         }
         Err(e) => fail(e),

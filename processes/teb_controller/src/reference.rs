@@ -37,8 +37,10 @@ pub(crate) struct Reference {
 }
 
 impl Reference {
-    /// Builds the sections. The direction of the step from pose j to j+1 is the one
-    /// stored on pose j+1 (how the planner reached it).
+    /// Builds the sections. The direction of each step is read from the geometry (see
+    /// [`step_direction`]), not from the labels: which pose of a step carries its label
+    /// differs between producers, and a label one pose off once turned the last 0.1 m
+    /// of a drive into a "rotation" the controller could not finish.
     pub fn new(poses: Vec<PathPose>) -> Reference {
         let mut cum = Vec::with_capacity(poses.len());
         let mut s = 0.0;
@@ -56,11 +58,15 @@ impl Reference {
                 direction: Direction::Forward,
             });
         }
+        let steps: Vec<Direction> = poses
+            .windows(2)
+            .map(|w| step_direction(&w[0].pose, &w[1].pose))
+            .collect();
         let mut j = 0;
         while j + 1 < poses.len() {
-            let dir = poses[j + 1].direction;
+            let dir = steps[j];
             let mut k = j + 1;
-            while k + 1 < poses.len() && poses[k + 1].direction == dir {
+            while k + 1 < poses.len() && steps[k] == dir {
                 k += 1;
             }
             sections.push(Section {
@@ -154,6 +160,23 @@ impl Reference {
     }
 }
 
+/// Positions closer than this are one place: the step between them is a rotation.
+const SAME_PLACE: f64 = 1e-6;
+
+/// How a differential-drive robot moves from `a` to `b`: on the spot when the position
+/// does not change, else forward or reverse by the side of `a`'s heading the chord
+/// points to (a drive step turns by far less than 90 degrees).
+pub(crate) fn step_direction(a: &Pose2, b: &Pose2) -> Direction {
+    let (dx, dy) = (b.x - a.x, b.y - a.y);
+    if dx.hypot(dy) < SAME_PLACE {
+        Direction::Rotate
+    } else if dx * a.theta.cos() + dy * a.theta.sin() < 0.0 {
+        Direction::Reverse
+    } else {
+        Direction::Forward
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -180,5 +203,59 @@ mod tests {
         assert!((p.s - 1.5).abs() < 1e-12 && (p.distance - 0.3).abs() < 1e-12);
         let q = r.sample(&r.sections[0], 0.25);
         assert!((q.x - 0.25).abs() < 1e-12);
+    }
+
+    /// The planner labels each pose with the motion that leaves it; the sections must
+    /// be the same as with labels on the arriving pose, or with no labels at all.
+    #[test]
+    fn sections_do_not_depend_on_which_pose_carries_the_label() {
+        let geometry = [
+            (0.0, 0.0, 0.0),
+            (0.1, 0.0, 0.0),
+            (0.2, 0.0, 0.0),
+            (0.2, 0.0, 0.5),
+            (0.2, 0.0, 1.0),
+            (0.2, -0.1, 1.0),
+        ];
+        // Leaving: forward, forward, rotate, rotate, reverse, (last repeats).
+        let leaving = [
+            Direction::Forward,
+            Direction::Forward,
+            Direction::Rotate,
+            Direction::Rotate,
+            Direction::Reverse,
+            Direction::Reverse,
+        ];
+        let arriving = [
+            Direction::Forward,
+            Direction::Forward,
+            Direction::Forward,
+            Direction::Rotate,
+            Direction::Rotate,
+            Direction::Reverse,
+        ];
+        let build = |labels: &[Direction]| {
+            Reference::new(
+                geometry
+                    .iter()
+                    .zip(labels)
+                    .map(|(&(x, y, t), &d)| pp(x, y, t, d))
+                    .collect(),
+            )
+            .sections
+        };
+        let a = build(&leaving);
+        assert_eq!(a, build(&arriving));
+        assert_eq!(a, build(&[Direction::Forward; 6]));
+        let spans: Vec<(usize, usize, Direction)> =
+            a.iter().map(|s| (s.first, s.last, s.direction)).collect();
+        assert_eq!(
+            spans,
+            [
+                (0, 2, Direction::Forward),
+                (2, 4, Direction::Rotate),
+                (4, 5, Direction::Reverse)
+            ]
+        );
     }
 }

@@ -517,3 +517,34 @@ fn a_path_with_a_cusp_is_driven_forward_then_in_reverse() {
         run.final_pose
     );
 }
+
+/// The end of a leg as the planner sends it: the drive, then a turn on the spot, each
+/// pose labelled with the motion that leaves it. A robot that stopped 0.22 m short of
+/// the drive's end (as a late realtime run did) must finish the drive before turning;
+/// reading the labels one pose off once made it "rotate" there for ever.
+#[test]
+fn a_robot_short_of_a_final_rotation_drives_there_first() {
+    let mut reference = straight_path(0.0, 3.0, 0.0);
+    if let Some(last) = reference.last_mut() {
+        last.direction = Direction::Rotate;
+    }
+    // A small final turn, as when the search ends one heading bin off the goal.
+    for heading in [0.035, 0.07] {
+        reference.push(PathPose::new(
+            Pose2::new(3.0, 0.0, heading),
+            Direction::Rotate,
+        ));
+    }
+    let goal = follow(reference, ROBOT, 0.1);
+    let run = drive(&goal, &vec![], Pose2::new(2.78, 0.0, 0.0), 30);
+    assert!(run.reached, "{:?} flags {:?}", run.final_pose, run.flags);
+    let end = Pose2::new(3.0, 0.0, 0.07);
+    let (lx, ly) = end.inverse_transform_point(run.final_pose.x, run.final_pose.y);
+    let tol = TebConfig::default().band.goal_tolerance;
+    assert!(
+        lx.abs() <= tol[0] && ly.abs() <= tol[1],
+        "{:?}",
+        run.final_pose
+    );
+    assert!(wrap_angle(run.final_pose.theta - 0.07).abs() <= tol[2]);
+}
