@@ -336,6 +336,24 @@ fn a_recorded_run_profiles_renders_and_survives_truncation() {
     );
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     assert_eq!(&std::fs::read(&png).unwrap()[..8], b"\x89PNG\r\n\x1a\n");
+    // The playback page: one file, background and every tick inside.
+    let page = dir.path("run.html");
+    let r = run(
+        &dir.run_dir(),
+        &[
+            "render",
+            file.to_str().unwrap(),
+            "-o",
+            page.to_str().unwrap(),
+        ],
+    );
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let html = std::fs::read_to_string(&page).unwrap();
+    assert!(html.starts_with("<!DOCTYPE html>"));
+    assert!(html.contains("data:image/png;base64,iVBORw0KGgo"));
+    assert!(!html.contains("http"), "self-contained: no links");
+    let frames = html.matches("],[").count();
+    assert!(frames >= ticks, "{frames} frames for {ticks} ticks");
 
     // A truncated file: a clear answer, never a panic.
     let bytes = std::fs::read(&file).unwrap();

@@ -7,7 +7,8 @@
 //!   [`diff`] names the first differing field);
 //! - [`reader`]: reads a recorded file (raw payloads, attachments, damage reports);
 //! - [`profile`]: per-stage and end-to-end latency and jitter from a recorded file;
-//! - [`render`]: a top-view PNG of a run.
+//! - [`render`]: a top-view PNG of a run; [`animate`]: a self-contained HTML page that
+//!   plays the run back.
 //!
 //! Lower layers: [`catalog`] (service -> message type), [`writer`] (the MCAP layout),
 //! [`viewer`] (Foxglove protobuf conversion), [`aligned`] (viewing bytes as messages),
@@ -15,6 +16,7 @@
 //! tests, benchmarks and examples.
 
 pub mod aligned;
+pub mod animate;
 pub mod canvas;
 pub mod catalog;
 pub mod diff;

@@ -21,6 +21,8 @@ pub struct RenderOptions {
     pub pixels_per_metre: f64,
     /// Draw every n-th controller band (0 = none).
     pub band_every: usize,
+    /// Draw the driven path.
+    pub driven: bool,
 }
 
 impl Default for RenderOptions {
@@ -28,6 +30,7 @@ impl Default for RenderOptions {
         Self {
             pixels_per_metre: 25.0,
             band_every: 15,
+            driven: true,
         }
     }
 }
@@ -285,11 +288,12 @@ pub fn render_file(
         }
     }
     summary.bands = run.bands.len();
-    for w in run.driven.windows(2) {
+    let driven: &[(f64, f64, u32)] = if opts.driven { &run.driven } else { &[] };
+    for w in driven.windows(2) {
         let color = SEGMENT_COLORS[w[1].2 as usize % SEGMENT_COLORS.len()];
         c.polyline(&[(w[0].0, w[0].1), (w[1].0, w[1].1)], 3.0, color, 1.0);
     }
-    if let (Some(first), Some(last)) = (run.driven.first(), run.driven.last()) {
+    if let (Some(first), Some(last)) = (driven.first(), driven.last()) {
         c.disc(first.0, first.1, 6.0, [0, 0, 0], 1.0);
         c.disc(last.0, last.1, 6.0, [0, 0, 0], 1.0);
         c.disc(last.0, last.1, 3.5, [255, 255, 255], 1.0);
@@ -370,6 +374,7 @@ mod tests {
         let opts = RenderOptions {
             pixels_per_metre: 20.0,
             band_every: 2,
+            driven: true,
         };
         let (canvas, summary) = render_file(&file, &opts).unwrap();
         // The synthetic map is 40 x 60 cells of 0.5 m: 20 x 30 m, plus the legend strip.
@@ -408,6 +413,7 @@ mod tests {
             let opts = RenderOptions {
                 pixels_per_metre: bad,
                 band_every: 1,
+                ..RenderOptions::default()
             };
             assert!(matches!(
                 render_file(&file, &opts),

@@ -51,7 +51,8 @@ pub enum Command {
         #[arg(long)]
         histograms: bool,
     },
-    /// Draw the top view of a recorded run as a PNG.
+    /// Draw the top view of a recorded run as a PNG, or (`-o run.html`) a self-contained
+    /// page that plays the run back.
     Render {
         file: PathBuf,
         #[arg(short, long)]

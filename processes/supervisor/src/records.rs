@@ -273,7 +273,29 @@ pub fn render(file: &Path, out: &Path, pixels_per_metre: f64, band_every: usize)
     let opts = aisle_tools::render::RenderOptions {
         pixels_per_metre,
         band_every,
+        driven: true,
     };
+    if out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("html"))
+    {
+        return match aisle_tools::animate::animate(file, out, &opts) {
+            Ok(a) => {
+                println!(
+                    "wrote {} ({} ticks, {} bands, {} KB)",
+                    out.display(),
+                    a.frames,
+                    a.bands,
+                    a.bytes / 1024
+                );
+                if let Some(t) = &a.truncated {
+                    println!("the file is damaged: drew what could be read; {t}");
+                }
+                ExitCode::SUCCESS
+            }
+            Err(e) => fail(e),
+        };
+    }
     match aisle_tools::render::render(file, out, &opts) {
         Ok(_) => {
             println!("wrote {}", out.display());
