@@ -1,6 +1,6 @@
 //! System tests of fault tolerance: a node killed with SIGKILL during the seed mission
 //! is restarted, resumes from the state it published, and the mission ends exactly as an
-//! undisturbed run does.
+//! undisturbed run does; its record (taken through the crash) passes `replay --check`.
 
 mod support;
 
@@ -41,7 +41,12 @@ fn killed_at_random_tick_resumes_exactly(node: &str) {
     let tick = random_tick(node, base.ticks);
     println!("killing {node} at tick {tick} of {}", base.ticks);
     let kill = format!("{node}@{tick}");
-    let (out, r) = run_report(&format!("ft-{node}"), &["--kill", &kill]);
+    let dir = TestDir::new(&format!("ft-rec-{node}"));
+    let record = dir.path("run.mcap");
+    let (out, r) = run_report(
+        &format!("ft-{node}"),
+        &["--kill", &kill, "--record", record.to_str().unwrap()],
+    );
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{err}");
     assert!(r.success, "{:?}", r.failure);
@@ -58,6 +63,20 @@ fn killed_at_random_tick_resumes_exactly(node: &str) {
             == serde_json::to_string(&base.driven_path).unwrap(),
         "the trajectory differs from the undisturbed run"
     );
+    // The record of the disturbed run is complete, and this build's mapper and
+    // controller, fed its inputs, give exactly its outputs.
+    let check = run(
+        &dir.run_dir(),
+        &["replay", record.to_str().unwrap(), "--check"],
+    );
+    let text = String::from_utf8_lossy(&check.stdout);
+    assert_eq!(
+        check.status.code(),
+        Some(0),
+        "{text}{}",
+        String::from_utf8_lossy(&check.stderr)
+    );
+    assert!(text.contains("identical"), "{text}");
 }
 
 #[test]

@@ -334,7 +334,9 @@ fn drain_loop(
     // The supervisor's acknowledgement of tick k is the last message of that tick; once
     // everything before it is drained, the recorder acknowledges k too, and a lockstep
     // simulator that waits for it loses nothing to the recorder.
-    let (mut seen_tick, mut acked_tick): (Option<u64>, Option<u64>) = (None, None);
+    // Every acknowledgement of the supervisor is answered, a repeated one too: a
+    // restarted simulator repeats the tick it died in and waits for everyone again.
+    let mut unanswered: Option<u64> = None;
     let mut last_traffic = std::time::Instant::now();
     loop {
         if signals::stop_requested() {
@@ -361,7 +363,7 @@ fn drain_loop(
                         && le_u32(bytes, TICK_DONE_NODE_AT) == Some(NodeKind::Supervisor as u32)
                         && let Some(t) = le_u64(bytes, TICK_DONE_TICK_AT)
                     {
-                        seen_tick = Some(seen_tick.map_or(t, |s: u64| s.max(t)));
+                        unanswered = Some(unanswered.map_or(t, |s: u64| s.max(t)));
                     }
                     match seqs.check(i, bytes) {
                         SeqVerdict::Repeat => return,
@@ -412,10 +414,7 @@ fn drain_loop(
         }
         heartbeat.tick(NodeState::Running)?;
         if received == 0 {
-            if let Some(t) = seen_tick
-                && acked_tick != Some(t)
-            {
-                acked_tick = Some(t);
+            if let Some(t) = unanswered.take() {
                 acks.publish(
                     Stamp {
                         tick: t,
