@@ -12,6 +12,22 @@ use std::path::Path;
 use std::process::ExitCode;
 use std::time::Duration;
 
+/// An error and its causes, each said once (a library error that already names its
+/// cause is not followed by the cause again).
+fn causes(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if !out.contains(&text) {
+            if !out.is_empty() {
+                out.push_str(": ");
+            }
+            out.push_str(&text);
+        }
+    }
+    out
+}
+
 fn fail(e: impl std::fmt::Display) -> ExitCode {
     eprintln!("error: {e}");
     ExitCode::from(1)
@@ -76,7 +92,7 @@ pub fn record(a: &RecordArgs, config_dir: &Path) -> ExitCode {
         .and_then(|scene| Ok(MissionConfig::load(&mission_path, &scene)?));
     let mission = match mission {
         Ok(m) => m,
-        Err(e) => return fail(format!("{e:#}")),
+        Err(e) => return fail(causes(&e)),
     };
     let args = NodeArgs {
         instance,
@@ -190,7 +206,7 @@ fn replay_lockstep(a: &ReplayArgs, instance: Option<Instance>) -> ExitCode {
             print_replayed(&s.published, s.truncated.as_deref(), s.stopped);
             ExitCode::SUCCESS
         }
-        Err(e) => fail(format!("{e:#}")),
+        Err(e) => fail(causes(&e)),
     }
 }
 
@@ -199,7 +215,7 @@ fn replay_check(a: &ReplayArgs) -> ExitCode {
     let summary = match crate::replay_check::check(&a.file, a.config_dir.as_deref()) {
         Ok(s) => s,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", causes(&e));
             return ExitCode::from(2);
         }
     };
