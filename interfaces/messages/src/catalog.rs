@@ -250,7 +250,8 @@ message!(
         start_ns: u64,
         len: u32,
         poses_len: u32,
-        /// 0 valid, 1 collision, 2 margin, 3 turning radius, 4 time not increasing, 5 off path.
+        /// 0 valid, 1 collision, 2 margin, 3 turning radius, 4 time not increasing, 5 off
+        /// path (MATLAB's codes); 6 an acceleration over its limit (aisle's; still driven).
         exit_flag: u32,
         last_feasible_index: i32,
         reached_goal: u32,

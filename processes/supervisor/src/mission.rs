@@ -521,7 +521,15 @@ impl Mission {
                 self.cooldown -= 1;
                 return Vec::new();
             }
-            let infeasible = report.exit_flag != 0 || !report.timestamps_increasing;
+            // MATLAB's flags 1-5 mean the band cannot be driven as it is: replan. Flag 6
+            // (aisle's own: an acceleration over its limit that slowing down could not
+            // remove) is driven all the same, and a new reference would not change it.
+            let infeasible = (1..=5).contains(&report.exit_flag) || !report.timestamps_increasing;
+            if report.exit_flag == 6 {
+                tracing::warn!(
+                    "t = {now_s:.1} s: the controller's band exceeds an acceleration limit (exit flag 6)"
+                );
+            }
             if infeasible {
                 self.replans += 1;
                 if self.replans + self.plan_failures > self.cfg.max_replans_per_leg {
@@ -785,6 +793,23 @@ mod tests {
             "{:?}",
             m.failure()
         );
+    }
+
+    #[test]
+    fn an_acceleration_flag_is_driven_not_replanned() {
+        let mut m = mission();
+        let p = Pose2::default();
+        m.start_leg(0.0, p);
+        m.on_plan(0.0, p, Ok(path()));
+        let hard = ControllerReport {
+            reached_goal: false,
+            exit_flag: 6,
+            timestamps_increasing: true,
+        };
+        for k in 0..10 {
+            assert!(m.on_controller(1.0 + f64::from(k), p, hard).is_empty());
+        }
+        assert!(m.failure().is_none());
     }
 
     #[test]

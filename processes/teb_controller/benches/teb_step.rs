@@ -6,7 +6,9 @@
 //! snapshot taken after two closed-loop periods) and the robot where that band said it
 //! would be 0.5 s later. "cold" is the first step of a goal (band built from scratch).
 //! Besides criterion's figures, the p50 / p99 over a fixed number of steps, the SCP
-//! iterations and the largest constraint violation are printed.
+//! iterations and the largest constraint violation are printed, and the subproblems of
+//! every step of a 16-period closed loop. A fourth, informative case follows a 3 m
+//! radius curve (no target; the linearised kinematics used to reject most steps there).
 
 use aisle_geometry::{
     CellIndex, Direction, Footprint, GridMap, OCCUPIED_DETECTED, PathPose, Pose2,
@@ -25,6 +27,8 @@ struct Situation {
     margin: f64,
     boxes: Vec<[f64; 4]>,
     homotopy: bool,
+    /// Radius of the reference arc, m (infinite: the straight line y = 0).
+    radius: f64,
 }
 
 fn situations() -> Vec<Situation> {
@@ -43,6 +47,7 @@ fn situations() -> Vec<Situation> {
             margin: 0.1,
             boxes: walls(1.5),
             homotopy: false,
+            radius: f64::INFINITY,
         },
         Situation {
             name: "pallet_ahead",
@@ -50,6 +55,7 @@ fn situations() -> Vec<Situation> {
             margin: 0.1,
             boxes: pallet.clone(),
             homotopy: false,
+            radius: f64::INFINITY,
         },
         Situation {
             name: "pallet_ahead_homotopy",
@@ -57,6 +63,7 @@ fn situations() -> Vec<Situation> {
             margin: 0.1,
             boxes: pallet,
             homotopy: true,
+            radius: f64::INFINITY,
         },
         Situation {
             name: "rack_2.5m_aisle",
@@ -64,6 +71,17 @@ fn situations() -> Vec<Situation> {
             margin: 0.4,
             boxes: walls(1.25),
             homotopy: false,
+            radius: f64::INFINITY,
+        },
+        // Not a target case: a free 3 m-radius curve, where the linearised kinematics
+        // used to reject most steps.
+        Situation {
+            name: "curve_r3",
+            footprint: Footprint::new(0.508, 0.43),
+            margin: 0.1,
+            boxes: Vec::new(),
+            homotopy: false,
+            radius: 3.0,
         },
     ]
 }
@@ -92,9 +110,21 @@ fn local_map(robot: &Pose2, boxes: &[[f64; 4]]) -> GridMap {
 }
 
 fn goal(s: &Situation) -> Goal {
+    let along = |d: f64| {
+        if s.radius.is_finite() {
+            // Left turn from the origin, heading +x, centre (0, r).
+            let a = d / s.radius;
+            Pose2::new(s.radius * a.sin(), s.radius * (1.0 - a.cos()), a)
+        } else {
+            Pose2::new(d, 0.0, 0.0)
+        }
+    };
     Goal {
+        // 20 m straight, or three quarters of a circle.
         reference: (0..=200)
-            .map(|i| PathPose::new(Pose2::new(0.1 * i as f64, 0.0, 0.0), Direction::Forward))
+            .map(|i| 0.1 * i as f64)
+            .take_while(|&d| d <= 1.5 * std::f64::consts::PI * s.radius)
+            .map(|d| PathPose::new(along(d), Direction::Forward))
             .collect(),
         footprint: s.footprint,
         margin: s.margin,
@@ -189,6 +219,36 @@ fn steps(c: &mut Criterion) {
             s.name,
             percentile(&times, 0.5),
             percentile(&times, 0.99)
+        );
+
+        // A closed loop of 16 periods (the robot exactly where each band says it is
+        // half a second later): subproblems per step and step times.
+        let mut looped = TebController::new(config(&s)).expect("valid config");
+        looped.set_goal(&g).expect("valid goal");
+        let (mut lp, mut lv, mut lt) = (start, 0.0, 0.0);
+        let mut iters = Vec::new();
+        let mut loop_times = Vec::new();
+        for _ in 0..16 {
+            let m = local_map(&lp, &s.boxes);
+            let t0 = Instant::now();
+            let out = looped.step(lp, (lv, 0.0), lt, &m.view()).expect("step");
+            loop_times.push(t0.elapsed().as_secs_f64() * 1e3);
+            iters.push(out.iterations);
+            if out.reached_goal || out.poses.len() < 2 {
+                break;
+            }
+            (lp, lv) = predicted(out, PERIOD);
+            lt += PERIOD;
+        }
+        loop_times.sort_by(f64::total_cmp);
+        println!(
+            "{}: closed loop {} steps, subproblems {:?} (mean {:.2}), step p50 {:.3} ms, max {:.3} ms",
+            s.name,
+            iters.len(),
+            iters,
+            iters.iter().sum::<usize>() as f64 / iters.len() as f64,
+            percentile(&loop_times, 0.5),
+            percentile(&loop_times, 1.0)
         );
 
         group.bench_function(format!("warm/{}", s.name), |b| {

@@ -128,6 +128,10 @@ pub struct SolverConfig {
     pub trust_heading: f64,
     /// Stop when the predicted merit decrease falls below this.
     pub tolerance: f64,
+    /// Also stop when the band meets every constraint and the next subproblem
+    /// promises less than this fraction of the merit: the next step starts from this
+    /// band anyway (real-time iteration), so polishing it is not worth a subproblem.
+    pub relative_tolerance: f64,
     /// Obstacle cells this far beyond the margin still produce constraints, m.
     pub obstacle_influence: f64,
     /// Position step between footprint checks along the band for the exit flag, m.
@@ -145,6 +149,7 @@ impl Default for SolverConfig {
             min_trust_radius: 0.01,
             trust_heading: 0.6,
             tolerance: 1e-3,
+            relative_tolerance: 0.05,
             obstacle_influence: 0.6,
             check_step: 0.05,
             proximal: 1e-3,
@@ -283,6 +288,9 @@ impl TebConfig {
         positive("solver.min_trust_radius", s.min_trust_radius)?;
         positive("solver.trust_heading", s.trust_heading)?;
         positive("solver.tolerance", s.tolerance)?;
+        if !(s.relative_tolerance.is_finite() && (0.0..1.0).contains(&s.relative_tolerance)) {
+            return Err(bad("solver.relative_tolerance", "must lie in [0, 1)"));
+        }
         non_negative("solver.obstacle_influence", s.obstacle_influence)?;
         positive("solver.check_step", s.check_step)?;
         positive("solver.proximal", s.proximal)?;
@@ -312,6 +320,15 @@ mod tests {
             c.validate(),
             Err(TebError::InvalidConfig {
                 key: "limits.max_velocity",
+                ..
+            })
+        ));
+        let mut c = TebConfig::default();
+        c.solver.relative_tolerance = 1.0;
+        assert!(matches!(
+            c.validate(),
+            Err(TebError::InvalidConfig {
+                key: "solver.relative_tolerance",
                 ..
             })
         ));

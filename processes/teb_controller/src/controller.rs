@@ -15,10 +15,13 @@ use crate::feasibility;
 use crate::goal::{Goal, Mode};
 use crate::output::{Command, ExitFlag, MAX_COMMANDS, StepOutput, TimedPose};
 use crate::reference::{Reference, Section};
-use crate::scp::{Problem, Scp, assess, segment_rate, segment_velocity};
+use crate::scp::{self, Problem, Scp, assess, segment_rate, segment_velocity};
+use crate::timing;
 
 /// Farthest a blocked pose is pushed sideways before the optimiser runs, m.
 const MAX_DETOUR: f64 = 3.0;
+/// Initial trust-region scale for a warm band (1 = the configured radius).
+const WARM_TRUST_SCALE: f64 = 0.3;
 /// Poses searched when pruning the passed part of the band.
 const PRUNE_WINDOW: usize = 10;
 /// Metres per radian when pruning, so turning on the spot prunes too.
@@ -55,6 +58,19 @@ pub struct TebController {
 fn within(tol: &[f64; 3], robot: &Pose2, goal: &Pose2) -> bool {
     let (lx, ly) = goal.inverse_transform_point(robot.x, robot.y);
     lx.abs() <= tol[0] && ly.abs() <= tol[1] && wrap_angle(robot.theta - goal.theta).abs() <= tol[2]
+}
+
+/// Whether the robot has done section `sec`. A rotation on the spot is done when the
+/// heading is: it cannot change the position, which the previous section already
+/// accepted in its own frame (an offset inside that frame's box can fall outside the
+/// rotated one, and the robot would then turn in place forever).
+fn section_done(tol: &[f64; 3], robot: &Pose2, reference: &Reference, sec: &Section) -> bool {
+    let end = reference.section_end(sec);
+    if sec.direction == Direction::Rotate {
+        wrap_angle(robot.theta - end.theta).abs() <= tol[2]
+    } else {
+        within(tol, robot, &end)
+    }
 }
 
 fn check_map(map: &GridView) -> Result<(), String> {
@@ -222,7 +238,7 @@ impl TebController {
         let sections = active.reference.sections.len();
         while active.section + 1 < sections {
             let sec = active.reference.sections[active.section];
-            if !within(&tol, &pose, &active.reference.section_end(&sec)) {
+            if !section_done(&tol, &pose, &active.reference, &sec) {
                 break;
             }
             active.section += 1;
@@ -232,9 +248,7 @@ impl TebController {
         }
         let sec = active.reference.sections[active.section];
         self.out.poses.push(TimedPose { t: t_step, pose });
-        if active.section + 1 == sections
-            && within(&tol, &pose, &active.reference.section_end(&sec))
-        {
+        if active.section + 1 == sections && section_done(&tol, &pose, &active.reference, &sec) {
             self.out.reached_goal = true;
             self.out.set_stop();
             self.band.clear();
@@ -346,7 +360,10 @@ impl TebController {
             s_hi,
         };
         let budget = cfg.solver.max_iterations;
-        let stats = self.scp.optimise(&problem, &mut self.band, budget, 1.0);
+        // A warm band was optimal one period ago: start with a trust region that
+        // refines it instead of one sized for bending a fresh band around obstacles.
+        let scale = if fresh { 1.0 } else { WARM_TRUST_SCALE };
+        let stats = self.scp.optimise(&problem, &mut self.band, budget, scale);
         let mut iterations = stats.iterations;
         let mut merit = stats.merit;
         // TEB's outer loop, once: the optimiser stretches segments where the band swerves
@@ -359,12 +376,19 @@ impl TebController {
                 cfg.band.max_poses,
             );
             ensure_min_poses(&mut self.band, cfg.band.min_poses);
+            // A merged segment's chord no longer follows the mean heading of its ends.
+            if sigma != 0.0 {
+                self.scp.project_kinematics(&mut self.band);
+            }
             fit_time_steps(&mut self.band, cfg, sigma);
-            // Splits follow the band's arcs, so the resized band is usually nearly as
-            // good as the optimised one; a worse one gets a shorter second round that
-            // starts from the trust region the first round ended with.
-            let (resized, _) = assess(&problem, &self.band);
-            if resized > merit + cfg.solver.tolerance {
+            // A split halves the span a velocity change is spread over.
+            timing::retime(&mut self.band, &problem.timing());
+            // Splits follow the band's arcs and the repairs above keep it within every
+            // limit, so the resized band usually only costs a little more (the next step
+            // starts from it anyway). One that still violates a constraint gets a
+            // shorter second round from the trust region the first round ended with.
+            let (resized, rv) = assess(&problem, &self.band);
+            if rv.max() > scp::FEASIBLE && resized > merit + cfg.solver.tolerance {
                 let again = self.scp.optimise(
                     &problem,
                     &mut self.band,
@@ -424,8 +448,10 @@ impl TebController {
             }
         }
 
-        // Numerical slack of the cones must not leak into the commands.
+        // Numerical slack of the cones must not leak into the commands, nor a sharper
+        // acceleration than slowing down can avoid.
         fit_time_steps(&mut self.band, cfg, sigma);
+        timing::retime(&mut self.band, &problem.timing());
         let verdict = feasibility::check(
             &self.band,
             map,
@@ -433,6 +459,7 @@ impl TebController {
             margin,
             cfg.solver.check_step,
             cfg.limits.min_turning_radius,
+            &problem.timing(),
         );
         let (_, violations) = assess(&problem, &self.band);
 
@@ -482,15 +509,7 @@ fn fit_time_steps(band: &mut Band, cfg: &TebConfig, sigma: f64) {
     } else {
         cfg.limits.max_velocity
     };
-    for k in 0..band.dts.len() {
-        let a = band.poses[k];
-        let b = band.poses[k + 1];
-        let need = (a.distance(&b) / vlim)
-            .max((b.theta - a.theta).abs() / cfg.limits.max_angular_velocity);
-        if band.dts[k] < need {
-            band.dts[k] = need;
-        }
-    }
+    scp::fit_time_steps(band, vlim, cfg.limits.max_angular_velocity);
 }
 
 /// Whether a segment is long enough that auto-resize would split it.

@@ -1,5 +1,6 @@
 //! The exit flag of an optimised band: collision and margin checks along the band
-//! (poses and interpolated states between them), time steps and turning radius.
+//! (poses and interpolated states between them), time steps, turning radius and
+//! accelerations.
 //!
 //! Knows nothing of the optimiser; it judges whatever band it is given.
 
@@ -8,6 +9,50 @@ use aisle_geometry::{Footprint, GridView, Pose2};
 use crate::band::Band;
 use crate::clearance::min_clearance;
 use crate::output::ExitFlag;
+use crate::timing::Timing;
+
+/// An acceleration counts as exceeded beyond this factor of its limit (MATLAB's 10 %
+/// for the margin).
+const ACCELERATION_TOLERANCE: f64 = 1.1;
+
+/// First segment whose velocity change (from the measured velocity, from the previous
+/// segment, or to rest at the end) exceeds `ACCELERATION_TOLERANCE` x its limit,
+/// measured as the optimiser measures it: over the mean duration of the two segments.
+fn first_excessive_acceleration(band: &Band, t: &Timing) -> Option<usize> {
+    let m = band.dts.len();
+    if m == 0 || band.poses.len() != m + 1 {
+        return None;
+    }
+    let motion = |k: usize| {
+        let (a, b) = (band.poses[k], band.poses[k + 1]);
+        let (s, c) = (0.5 * (a.theta + b.theta)).sin_cos();
+        let dt = band.dts[k];
+        (
+            (c * (b.x - a.x) + s * (b.y - a.y)) / dt,
+            (b.theta - a.theta) / dt,
+        )
+    };
+    let over = |dv: f64, dw: f64, span: f64| {
+        dv.abs() > ACCELERATION_TOLERANCE * t.max_acceleration * span
+            || dw.abs() > ACCELERATION_TOLERANCE * t.max_angular_acceleration * span
+    };
+    let (v, w) = motion(0);
+    if over(v - t.v0, w - t.w0, band.dts[0]) {
+        return Some(0);
+    }
+    for k in 0..m - 1 {
+        let (va, wa) = motion(k);
+        let (vb, wb) = motion(k + 1);
+        if over(vb - va, wb - wa, 0.5 * (band.dts[k] + band.dts[k + 1])) {
+            return Some(k + 1);
+        }
+    }
+    let (v, w) = motion(m - 1);
+    if t.at_rest && over(v, w, band.dts[m - 1]) {
+        return Some(m - 1);
+    }
+    None
+}
 
 pub(crate) struct Verdict {
     pub flag: ExitFlag,
@@ -17,7 +62,9 @@ pub(crate) struct Verdict {
 }
 
 /// Checks the band. Pose 0 (the robot now) counts only for collision, since the
-/// robot cannot undo a margin it has already lost.
+/// robot cannot undo a margin it has already lost. `timing` holds the measured start
+/// velocity and the acceleration limits.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn check(
     band: &Band,
     map: &GridView,
@@ -25,6 +72,7 @@ pub(crate) fn check(
     margin: f64,
     step: f64,
     min_turning_radius: f64,
+    timing: &Timing,
 ) -> Verdict {
     let n = band.poses.len();
     let mut v = Verdict {
@@ -92,6 +140,53 @@ pub(crate) fn check(
     if let Some(k) = band.dts.iter().position(|t| !(t.is_finite() && *t > 0.0)) {
         v.flag = ExitFlag::TimeNotIncreasing;
         v.last_feasible_index = k;
+        return v;
+    }
+    if let Some(k) = first_excessive_acceleration(band, timing) {
+        v.flag = ExitFlag::AccelerationExceeded;
+        v.last_feasible_index = k;
     }
     v
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use aisle_geometry::GridMap;
+
+    #[test]
+    fn a_band_braking_too_hard_is_flagged() {
+        // 2 m/s for 0.6 s, then 0.5 m/s: 1.5 m/s lost over 0.3 s is 5 m/s^2.
+        let mut band = Band::default();
+        band.poses.push(Pose2::new(0.0, 0.0, 0.0));
+        for (k, v) in [2.0, 2.0, 0.5].iter().enumerate() {
+            let x = band.poses[k].x + v * 0.3;
+            band.poses.push(Pose2::new(x, 0.0, 0.0));
+            band.dts.push(0.3);
+        }
+        let map = GridMap::new_free(-5.0, -5.0, 0.1, 10.0, 10.0).unwrap();
+        let fp = Footprint::new(0.5, 0.4);
+        let mut timing = Timing {
+            v0: 2.0,
+            w0: 0.0,
+            at_rest: false,
+            max_acceleration: 2.4,
+            max_angular_acceleration: 4.8,
+        };
+        let verdict = check(&band, &map.view(), &fp, 0.1, 0.05, 0.0, &timing);
+        assert_eq!(verdict.flag, ExitFlag::AccelerationExceeded);
+        assert_eq!(verdict.last_feasible_index, 2);
+        // The same band under a 6 m/s^2 limit is valid.
+        timing.max_acceleration = 6.0;
+        let verdict = check(&band, &map.view(), &fp, 0.1, 0.05, 0.0, &timing);
+        assert_eq!(verdict.flag, ExitFlag::Valid);
+        // Starting from rest into 2 m/s over 0.3 s (6.7 m/s^2) is flagged at segment 0.
+        timing.max_acceleration = 2.4;
+        timing.v0 = 0.0;
+        let verdict = check(&band, &map.view(), &fp, 0.1, 0.05, 0.0, &timing);
+        assert_eq!(verdict.flag, ExitFlag::AccelerationExceeded);
+        assert_eq!(verdict.last_feasible_index, 0);
+        assert_eq!(verdict.flag.code(), 6);
+        assert!(!verdict.flag.stops_robot());
+    }
 }

@@ -25,11 +25,13 @@ mod detour;
 mod error;
 mod feasibility;
 mod goal;
+mod kinematics;
 pub mod node;
 mod output;
 mod qp;
 mod reference;
 mod scp;
+mod timing;
 
 #[cfg(test)]
 mod tests;

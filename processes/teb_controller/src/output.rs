@@ -42,6 +42,10 @@ pub enum ExitFlag {
     TimeNotIncreasing,
     /// 5: the robot is farther from the reference path than the look-ahead distance.
     OffPath,
+    /// 6 (not MATLAB's): a linear or angular acceleration along the band, or from the
+    /// measured velocity into it, exceeds its limit by more than 10 %. The commands are
+    /// still driven (stopping dead would be a harder acceleration still).
+    AccelerationExceeded,
 }
 
 impl ExitFlag {
@@ -54,6 +58,7 @@ impl ExitFlag {
             ExitFlag::TurningRadius => 3,
             ExitFlag::TimeNotIncreasing => 4,
             ExitFlag::OffPath => 5,
+            ExitFlag::AccelerationExceeded => 6,
         }
     }
 

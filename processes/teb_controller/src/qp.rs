@@ -255,11 +255,13 @@ impl Qp {
             verbose: false,
             // Single-threaded and deterministic; the wall-clock limit stays infinite.
             max_threads: 1,
-            // A trust-region step needs far less than clarabel's 1e-8 default accuracy;
-            // the exact merit judges every step anyway.
-            tol_gap_abs: 1e-6,
-            tol_gap_rel: 1e-6,
-            tol_feas: 1e-6,
+            // A trust-region step needs far less than clarabel's 1e-8 default accuracy:
+            // the exact merit judges every step, and the candidate's velocity limits
+            // are restored exactly afterwards. 1e-4 on the gap saves two or three
+            // interior-point iterations (about 10 % of a subproblem) over 1e-6.
+            tol_gap_abs: 1e-4,
+            tol_gap_rel: 1e-4,
+            tol_feas: 1e-5,
             tol_ktratio: 1e-5,
             iterative_refinement_enable: false,
             ..DefaultSettings::default()
@@ -340,9 +342,10 @@ mod tests {
         qp.soc3([(&zero, 1.0), (&n0, 0.0), (&n1, 0.0)]);
         let r = qp.solve(50);
         assert!(r.ok);
-        assert!((qp.x[0] - 0.5).abs() < 1e-6, "{:?}", qp.x);
-        assert!((qp.x[1] - 0.75f64.sqrt()).abs() < 1e-6, "{:?}", qp.x);
+        // Solved to the accuracy the controller asks of clarabel (gap 1e-4).
+        assert!((qp.x[0] - 0.5).abs() < 1e-4, "{:?}", qp.x);
+        assert!((qp.x[1] - 0.75f64.sqrt()).abs() < 1e-4, "{:?}", qp.x);
         let expect = 0.25 + (1.0 - 0.75f64.sqrt()).powi(2);
-        assert!((r.model - expect).abs() < 1e-6);
+        assert!((r.model - expect).abs() < 1e-4, "{} vs {expect}", r.model);
     }
 }

@@ -116,7 +116,14 @@ impl Reference {
                 0.0
             };
             let (px, py) = (a.x + u * dx, a.y + u * dy);
-            let d = (x - px).hypot(y - py);
+            let d2 = (x - px) * (x - px) + (y - py) * (y - py);
+            // Most segments are farther than the best so far: skip their roots (this
+            // loop runs for every band pose in every merit evaluation).
+            let bound = best.distance + 1e-9;
+            if d2 > bound * bound {
+                continue;
+            }
+            let d = d2.sqrt();
             let len = len2.sqrt();
             if d < best.distance - 1e-12 || (!best_tangent_set && d <= best.distance + 1e-12) {
                 best = Projection {

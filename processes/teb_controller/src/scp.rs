@@ -8,18 +8,25 @@
 //! sections or the bus: it receives a [`Problem`] and a band and improves the band.
 //!
 //! Each subproblem costs most of a step's time, so the loop avoids needless ones:
-//! clearance rows the trust region cannot make active are left out, a rejected step is
-//! retried once at a fraction of its length (one merit evaluation) before the trust
-//! region shrinks, and the loop stops as soon as the model predicted the merit exactly
-//! for a step that stayed inside its trust region.
+//! - every candidate is repaired before it is judged (kinematic slip projected out,
+//!   velocity limits and accelerations restored by lengthening time steps), so steps
+//!   are not rejected for the curvature of the linearised constraints;
+//! - clearance rows the trust region cannot make active are left out;
+//! - a rejected step is retried once at a fraction of its length (one merit
+//!   evaluation) before the trust region shrinks;
+//! - the loop stops as soon as the model predicted the merit exactly for a step that
+//!   stayed inside its trust region, or once the band meets every constraint and the
+//!   next subproblem promises only a small fraction of the merit.
 
 use aisle_geometry::{Footprint, GridView, Pose2};
 
 use crate::band::Band;
 use crate::clearance::{CellHit, min_clearance, nearest_per_sector};
 use crate::config::TebConfig;
+use crate::kinematics::Projector;
 use crate::qp::{Qp, Row};
 use crate::reference::{Reference, Section};
+use crate::timing::{Timing, retime};
 
 /// Everything fixed during one step's optimisation.
 pub(crate) struct Problem<'a> {
@@ -44,7 +51,18 @@ pub(crate) struct Problem<'a> {
 }
 
 impl Problem<'_> {
-    fn v_limit(&self) -> f64 {
+    /// Boundary conditions and limits of the acceleration retiming.
+    pub fn timing(&self) -> Timing {
+        Timing {
+            v0: self.v0,
+            w0: self.w0,
+            at_rest: self.at_rest,
+            max_acceleration: self.cfg.limits.max_acceleration,
+            max_angular_acceleration: self.cfg.limits.max_angular_acceleration,
+        }
+    }
+
+    pub fn v_limit(&self) -> f64 {
         if self.sigma < 0.0 {
             self.cfg.limits.max_reverse_velocity
         } else {
@@ -67,12 +85,20 @@ pub(crate) struct Scp {
     qp: Qp,
     candidate: Band,
     hits: [Option<CellHit>; 4],
+    proj: Projector,
+    slip_target: Vec<f64>,
 }
 
 /// Column of pose `i`'s coordinate `c` (0 x, 1 y, 2 theta); pose 0 is fixed.
 #[inline]
 fn pc(i: usize, c: usize) -> Option<usize> {
     if i == 0 { None } else { Some(3 * (i - 1) + c) }
+}
+
+/// Component `c` of pose `i`'s step in `d` (zero for the fixed pose 0).
+#[inline]
+fn d_at(d: &[f64], i: usize, c: usize) -> f64 {
+    pc(i, c).map_or(0.0, |k| d[k])
 }
 
 /// Linearised v_k = (dp_k . h_k) / T_k: value and gradient row.
@@ -103,6 +129,43 @@ fn lin_w(band: &Band, k: usize, t_col: usize) -> (f64, Row) {
     (d / t, r)
 }
 
+/// `candidate` = `band` moved by `alpha` times the step `x` (pose steps, then time
+/// steps), with every time step kept at least `min_dt`.
+fn apply_step(candidate: &mut Band, band: &Band, x: &[f64], alpha: f64, min_dt: f64) {
+    candidate.copy_from(band);
+    for i in 1..band.poses.len() {
+        let q = &mut candidate.poses[i];
+        q.x += alpha * x[3 * (i - 1)];
+        q.y += alpha * x[3 * (i - 1) + 1];
+        q.theta += alpha * x[3 * (i - 1) + 2];
+    }
+    let t0 = 3 * (band.poses.len() - 1);
+    for k in 0..band.dts.len() {
+        candidate.dts[k] = (band.dts[k] + alpha * x[t0 + k]).max(min_dt);
+    }
+}
+
+/// Stretches every time step that is too short for its segment under the velocity
+/// limits `vlim` (m/s) and `wmax` (rad/s).
+pub(crate) fn fit_time_steps(band: &mut Band, vlim: f64, wmax: f64) {
+    for k in 0..band.dts.len() {
+        let a = band.poses[k];
+        let b = band.poses[k + 1];
+        let need = (chord(&a, &b) / vlim).max((b.theta - a.theta).abs() / wmax);
+        if band.dts[k] < need {
+            band.dts[k] = need;
+        }
+    }
+}
+
+/// Distance between two band poses: a plain root, as band coordinates cannot overflow
+/// and `hypot`'s care for that costs several times more on these hot paths.
+#[inline]
+fn chord(a: &Pose2, b: &Pose2) -> f64 {
+    let (dx, dy) = (b.x - a.x, b.y - a.y);
+    (dx * dx + dy * dy).sqrt()
+}
+
 /// Pose a fraction `u` of the way from `a` to `b`.
 fn lerp(a: &Pose2, b: &Pose2, u: f64) -> Pose2 {
     Pose2::new(
@@ -116,7 +179,7 @@ fn lerp(a: &Pose2, b: &Pose2, u: f64) -> Pose2 {
 /// at least one (the midpoint), at most `MAX_INTERIOR_SAMPLES`. A stretched segment
 /// would otherwise cut a corner unchecked.
 fn interior_samples(a: &Pose2, b: &Pose2) -> usize {
-    let n = (a.distance(b) / SAMPLE_SPACING).ceil();
+    let n = (chord(a, b) / SAMPLE_SPACING).ceil();
     if n.is_finite() {
         (n as usize).clamp(1, MAX_INTERIOR_SAMPLES)
     } else {
@@ -125,6 +188,11 @@ fn interior_samples(a: &Pose2, b: &Pose2) -> usize {
 }
 
 const SAMPLE_SPACING: f64 = 0.3;
+/// Largest constraint violation (in each constraint's units) of a band that counts as
+/// meeting every constraint.
+pub(crate) const FEASIBLE: f64 = 1e-3;
+/// Gauss-Newton sweeps of the kinematic projection of a candidate.
+const PROJECTION_SWEEPS: usize = 2;
 /// Relative error of the predicted merit decrease below which the model counts as exact.
 const EXACT_MODEL: f64 = 1e-2;
 /// Fraction of the trust region an interior step stays within.
@@ -197,7 +265,7 @@ fn evaluate(p: &Problem, band: &Band) -> (f64, Violations) {
         let a = band.poses[k];
         let b = band.poses[k + 1];
         let dt = band.dts[k];
-        let vel = (a.distance(&b) - vlim * dt).max(0.0) / dt;
+        let vel = (chord(&a, &b) - vlim * dt).max(0.0) / dt;
         let rate = ((b.theta - a.theta).abs() - lim.max_angular_velocity * dt).max(0.0) / dt;
         t.sum += vel * dt + rate * dt;
         t.worst.velocity = t.worst.velocity.max(vel).max(rate);
@@ -289,6 +357,8 @@ impl Scp {
             qp: Qp::new(),
             candidate: Band::default(),
             hits: [None; 4],
+            proj: Projector::default(),
+            slip_target: Vec::new(),
         }
     }
 
@@ -304,7 +374,7 @@ impl Scp {
     ) -> ScpStats {
         let cfg = &p.cfg.solver;
         let mut scale = scale;
-        let (mut merit, _) = evaluate(p, band);
+        let (mut merit, mut worst) = evaluate(p, band);
         let mut stats = ScpStats {
             iterations: 0,
             merit,
@@ -313,7 +383,7 @@ impl Scp {
         if band.poses.len() < 2 {
             return stats;
         }
-        for _ in 0..max_iterations {
+        while stats.iterations < max_iterations {
             if scale * cfg.trust_radius < cfg.min_trust_radius {
                 break;
             }
@@ -324,12 +394,21 @@ impl Scp {
                 scale *= 0.3;
                 continue;
             }
-            self.set_candidate(band, 1.0, p.cfg.band.min_dt);
-            let (cand_merit, _) = evaluate(p, &self.candidate);
+            apply_step(
+                &mut self.candidate,
+                band,
+                &self.qp.x,
+                1.0,
+                p.cfg.band.min_dt,
+            );
+            self.polish(p, band, 1.0);
+            let (cand_merit, cand_worst) = evaluate(p, &self.candidate);
             let predicted = merit - r.model;
             let actual = merit - cand_merit;
-            if predicted <= cfg.tolerance {
-                if actual >= 0.0 {
+            let polishing =
+                worst.max() <= FEASIBLE && predicted <= cfg.relative_tolerance * merit.abs();
+            if predicted <= cfg.tolerance || polishing {
+                if actual >= 0.0 && cand_worst.max() <= worst.max().max(FEASIBLE) {
                     band.copy_from(&self.candidate);
                     merit = cand_merit;
                 }
@@ -343,6 +422,7 @@ impl Scp {
             if ratio > 0.1 {
                 band.copy_from(&self.candidate);
                 merit = cand_merit;
+                worst = cand_worst;
                 // The model foresaw the merit exactly and the step did not touch the
                 // trust region: the band is where the convex model has its minimum, and
                 // another subproblem would only confirm it.
@@ -352,17 +432,25 @@ impl Scp {
                 if ratio > 0.75 {
                     scale = (scale * 2.0).min(2.0);
                 }
-            } else {
-                scale *= 0.3;
-                // The convex model is minimised along the whole step, so a shorter step
-                // along it still promises at least that fraction of the decrease; trying
-                // it costs one merit evaluation instead of a subproblem.
-                self.set_candidate(band, LINE_STEP, p.cfg.band.min_dt);
-                let (short, _) = evaluate(p, &self.candidate);
-                if short.is_finite() && merit - short > 0.1 * LINE_STEP * predicted {
-                    band.copy_from(&self.candidate);
-                    merit = short;
-                }
+                continue;
+            }
+            scale *= 0.3;
+            // The convex model is minimised along the whole step, so a shorter step
+            // along it still promises at least that fraction of the decrease; trying
+            // it costs one merit evaluation instead of a subproblem.
+            apply_step(
+                &mut self.candidate,
+                band,
+                &self.qp.x,
+                LINE_STEP,
+                p.cfg.band.min_dt,
+            );
+            self.polish(p, band, LINE_STEP);
+            let (short, short_worst) = evaluate(p, &self.candidate);
+            if short.is_finite() && merit - short > 0.1 * LINE_STEP * predicted {
+                band.copy_from(&self.candidate);
+                merit = short;
+                worst = short_worst;
             }
         }
         stats.merit = merit;
@@ -370,20 +458,37 @@ impl Scp {
         stats
     }
 
-    /// `candidate` = `band` moved by `alpha` times the last subproblem's step.
-    fn set_candidate(&mut self, band: &Band, alpha: f64, min_dt: f64) {
-        self.candidate.copy_from(band);
-        let x = &self.qp.x;
-        for i in 1..band.poses.len() {
-            let q = &mut self.candidate.poses[i];
-            q.x += alpha * x[3 * (i - 1)];
-            q.y += alpha * x[3 * (i - 1) + 1];
-            q.theta += alpha * x[3 * (i - 1) + 2];
+    /// Repairs in `candidate` (= `band` + `alpha` x the last subproblem's step) what
+    /// the linearised constraints got wrong by curvature alone, so the merit judges the
+    /// step and not its second-order error (which the exact L1 penalty charges at the
+    /// constraint weight, rejecting good steps: the Maratos effect):
+    /// - the slip the linearised kinematics did not foresee: each segment's slip is
+    ///   brought to the model's value (zero wherever the subproblem met the constraint);
+    /// - the velocity limits, exact in every subproblem, by lengthening time steps;
+    /// - accelerations (v = chord / T is curved in T), by lengthening time steps.
+    fn polish(&mut self, p: &Problem, band: &Band, alpha: f64) {
+        if p.sigma != 0.0 {
+            let x = &self.qp.x;
+            self.slip_target.clear();
+            for k in 0..band.dts.len() {
+                let (a, b) = (band.poses[k], band.poses[k + 1]);
+                let (sm, cm) = (0.5 * (a.theta + b.theta)).sin_cos();
+                let lon = cm * (b.x - a.x) + sm * (b.y - a.y);
+                let change = -sm * (d_at(x, k + 1, 0) - d_at(x, k, 0))
+                    + cm * (d_at(x, k + 1, 1) - d_at(x, k, 1))
+                    - 0.5 * lon * (d_at(x, k, 2) + d_at(x, k + 1, 2));
+                self.slip_target
+                    .push(kinematic_residual(&a, &b) + alpha * change);
+            }
+            self.proj
+                .project(&mut self.candidate, &self.slip_target, PROJECTION_SWEEPS);
         }
-        let t0 = 3 * (band.poses.len() - 1);
-        for k in 0..band.dts.len() {
-            self.candidate.dts[k] = (band.dts[k] + alpha * x[t0 + k]).max(min_dt);
-        }
+        fit_time_steps(
+            &mut self.candidate,
+            p.v_limit(),
+            p.cfg.limits.max_angular_velocity,
+        );
+        retime(&mut self.candidate, &p.timing());
     }
 
     /// Whether the last step kept every pose well inside its trust region.
@@ -654,6 +759,12 @@ impl Scp {
         let mut r = Row::new();
         r.add(pc(np - 1, 2), -1.0).add(Some(sh), -1.0);
         qp.leq(&r, e);
+    }
+
+    /// Removes the slip of every segment (see [`Projector`]): for bands whose poses were
+    /// moved or merged outside the optimiser.
+    pub fn project_kinematics(&mut self, band: &mut Band) {
+        self.proj.project(band, &[], PROJECTION_SWEEPS);
     }
 
     /// Interior-point iterations of the last subproblem (for diagnostics).

@@ -548,3 +548,107 @@ fn a_robot_short_of_a_final_rotation_drives_there_first() {
     );
     assert!(wrap_angle(run.final_pose.theta - 0.07).abs() <= tol[2]);
 }
+
+/// Worst ratio of a commanded acceleration to its limit along a step's timeline,
+/// measured as the controller measures it (velocity change between consecutive
+/// segments over the mean of their durations; from the measured velocity over the
+/// first segment; to rest over the last when the timeline ends with a stop).
+fn worst_acceleration_ratio(out: &StepOutput, v0: (f64, f64), cfg: &TebConfig) -> f64 {
+    let c = &out.commands;
+    let (amax, alpha) = (
+        cfg.limits.max_acceleration,
+        cfg.limits.max_angular_acceleration,
+    );
+    let mut worst: f64 = 0.0;
+    let n = c.len();
+    if n < 2 {
+        return 0.0;
+    }
+    let dur = |k: usize| c[k + 1].t - c[k].t;
+    worst = worst
+        .max((c[0].v - v0.0).abs() / (amax * dur(0)))
+        .max((c[0].w - v0.1).abs() / (alpha * dur(0)));
+    for k in 0..n.saturating_sub(2) {
+        let span = 0.5 * (dur(k) + dur(k + 1));
+        worst = worst
+            .max((c[k + 1].v - c[k].v).abs() / (amax * span))
+            .max((c[k + 1].w - c[k].w).abs() / (alpha * span));
+    }
+    worst
+}
+
+#[test]
+fn tight_arc_to_the_goal_keeps_accelerations_or_flags_them() {
+    // 2 m straight, then a half circle of 3 m radius ending at the goal: the band turns
+    // near full speed and must stop inside the horizon. This used to return a band
+    // 1.46 x over the acceleration limit flagged valid.
+    let r = 3.0;
+    let mut reference: Vec<PathPose> = (0..20)
+        .map(|i| {
+            PathPose::new(
+                Pose2::new(-2.0 + 0.1 * i as f64, 0.0, 0.0),
+                Direction::Forward,
+            )
+        })
+        .collect();
+    let n = (std::f64::consts::PI * r / 0.1).round() as usize;
+    reference.extend((0..=n).map(|i| {
+        let a = std::f64::consts::PI * i as f64 / n as f64;
+        PathPose::new(
+            Pose2::new(r * a.sin(), r * (1.0 - a.cos()), a),
+            Direction::Forward,
+        )
+    }));
+    let goal = follow(reference, ROBOT, 0.1);
+    let cfg = TebConfig::default();
+    let mut teb = TebController::new(cfg.clone()).unwrap();
+    teb.set_goal(&goal).unwrap();
+    let (mut pose, mut v, mut w, mut t) = (Pose2::new(-2.0, 0.0, 0.0), 0.0, 0.0, 0.0);
+    let map = local_map(&Pose2::new(1.5, 1.5, 0.0), &vec![]);
+    let mut reached = false;
+    for _ in 0..40 {
+        let out = teb.step(pose, (v, w), t, &map.view()).unwrap().clone();
+        no_nan(&out);
+        if out.reached_goal {
+            reached = true;
+            break;
+        }
+        let ratio = worst_acceleration_ratio(&out, (v, w), &cfg);
+        assert!(
+            ratio <= 1.1 || out.exit_flag != ExitFlag::Valid,
+            "acceleration {ratio:.2} x the limit flagged valid at {pose:?}: {:?}",
+            out.commands
+        );
+        for k in 0..50 {
+            let (cv, cw) = out.command_at(t + k as f64 * 0.01 + 1e-9);
+            pose = unicycle(&pose, cv, cw, 0.01);
+            (v, w) = (cv, cw);
+        }
+        t += PERIOD;
+    }
+    assert!(reached, "{pose:?}");
+}
+
+#[test]
+fn a_final_rotation_ends_even_when_the_offset_leaves_the_rotated_tolerance_box() {
+    // Straight to (3, 0), then turn on the spot to 45 degrees. The robot stops where the
+    // straight section counts as done, 0.19 m short and 0.19 m aside: in the frame of
+    // the rotated goal that is 0.27 m across, beyond the 0.2 m tolerance, and turning
+    // cannot move it. The rotation must still end once the heading is reached.
+    let mut reference = straight_path(0.0, 3.0, 0.0);
+    let target = std::f64::consts::FRAC_PI_4;
+    reference.push(PathPose::new(
+        Pose2::new(3.0, 0.0, target),
+        Direction::Rotate,
+    ));
+    let goal = follow(reference, ROBOT, 0.1);
+    let run = drive(&goal, &vec![], Pose2::new(2.81, 0.19, 0.0), 30);
+    assert!(run.reached, "{:?} flags {:?}", run.final_pose, run.flags);
+    let tol = TebConfig::default().band.goal_tolerance;
+    assert!(wrap_angle(run.final_pose.theta - target).abs() <= tol[2] + 1e-9);
+    assert!(
+        run.final_pose.distance(&Pose2::new(2.81, 0.19, 0.0)) < 0.05,
+        "{:?}",
+        run.final_pose
+    );
+}
