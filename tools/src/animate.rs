@@ -7,7 +7,6 @@
 //!
 //! Reads the raw channels of the file; knows the message layouts, not the processes.
 
-use crate::aligned::AlignedBuf;
 use crate::reader::RecordFile;
 use crate::render::{RenderError, RenderOptions, SEGMENT_COLORS, render_file};
 use aisle_messages::services as s;
@@ -54,20 +53,11 @@ pub struct AnimationSummary {
 
 fn collect(file: &RecordFile) -> Playback {
     let mut pb = Playback::default();
-    let mut buf = AlignedBuf::new();
     let mut segment = 0;
     let mut band = None;
     let mut bodies: Option<usize> = None;
-    for m in file.raw_messages() {
-        let m = match m {
-            Ok(m) => m,
-            Err(e) => {
-                pb.truncated = Some(e.to_string());
-                break;
-            }
-        };
-        buf.set(&m.data);
-        match m.channel.topic.as_str() {
+    let truncated = file.for_each_payload(|topic, buf| {
+        match topic {
             s::MISSION_STATUS => {
                 if let Some(st) = buf.view::<MissionStatus>() {
                     segment = st.segment;
@@ -126,7 +116,8 @@ fn collect(file: &RecordFile) -> Playback {
             }
             _ => {}
         }
-    }
+    });
+    pb.truncated = truncated;
     pb
 }
 

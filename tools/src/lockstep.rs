@@ -13,8 +13,9 @@
 
 use crate::catalog::service_info;
 use crate::diff::{WALL_CLOCK_FIELDS, first_difference};
+use crate::reader::ChannelInfo;
 use crate::reader::RecordFile;
-use crate::replay::{RawSink, ReplayError, check_channel, make_sink};
+use crate::replay::{RawSink, ReplayError, check_channel, make_sink, recorded_channel};
 use crate::tick_batches::{BatchOptions, TickBatch, TickBatches};
 use aisle_bus::{Bus, BusError, Qos, Subscriber, WaitOutcome, message_bytes, signals};
 use aisle_messages::{Message, NodeKind, TickDone, services as s};
@@ -25,7 +26,8 @@ use std::time::{Duration, Instant};
 #[derive(Debug, Clone)]
 pub struct LockstepOptions {
     pub file: PathBuf,
-    /// Services published from the file.
+    /// Services published from the file; empty: every recorded service but the bus's
+    /// own and those the consumers produce.
     pub publish: Vec<String>,
     /// Live nodes whose acknowledgement of a tick lets the next one go (those that
     /// acknowledged that tick in the recording).
@@ -40,27 +42,19 @@ pub struct LockstepOptions {
     pub ack_timeout: Duration,
 }
 
-impl LockstepOptions {
-    /// The services a lockstep replay publishes by default: every recorded one except
-    /// the bus's own (announcement, heartbeats, acknowledgements) and those the
-    /// consumers produce themselves.
-    pub fn default_publish(file: &RecordFile, consumers: &[NodeKind]) -> Vec<String> {
-        let mut out: Vec<String> = Vec::new();
-        for m in file.raw_messages() {
-            let Ok(m) = m else { break };
-            let t = m.channel.topic.as_str();
-            if out.iter().any(|o| o == t) || [s::INSTANCE, s::HEARTBEAT, s::TICK_DONE].contains(&t)
-            {
-                continue;
-            }
-            if crate::catalog::producer(t).is_some_and(|p| consumers.contains(&p)) {
-                continue;
-            }
-            out.push(t.to_string());
-        }
-        out.sort();
-        out
-    }
+/// The services a lockstep replay publishes when none are named: every recorded one
+/// except the bus's own (announcement, heartbeats, acknowledgements) and those the
+/// consumers produce themselves.
+fn default_publish(
+    recorded: &BTreeMap<String, ChannelInfo>,
+    consumers: &[NodeKind],
+) -> Vec<String> {
+    recorded
+        .keys()
+        .filter(|t| ![s::INSTANCE, s::HEARTBEAT, s::TICK_DONE].contains(&t.as_str()))
+        .filter(|t| !crate::catalog::producer(t).is_some_and(|p| consumers.contains(&p)))
+        .cloned()
+        .collect()
 }
 
 /// Where a live output first differed from the recording.
@@ -106,10 +100,9 @@ pub struct LockstepSummary {
 }
 
 impl LockstepSummary {
+    /// Something was compared and nothing differed.
     pub fn identical(&self) -> bool {
-        self.diverged.values().all(|n| *n == 0)
-            && self.first.is_none()
-            && self.compared.values().sum::<u64>() > 0
+        self.first.is_none() && self.compared.values().sum::<u64>() > 0
     }
 
     fn diverge(&mut self, batch: &TickBatch, service: &str, detail: String) {
@@ -170,46 +163,31 @@ impl LockstepPorts {
         file: &RecordFile,
         opts: &LockstepOptions,
     ) -> Result<LockstepPorts, ReplayError> {
-        let recorded = recorded_channels(file);
+        let recorded = file.recorded_raw_channels();
         let path = file.path();
-        if let Some(mode) = recorded_mode(file)
-            && mode != "0"
-        {
+        if file.run_metadata().get("mode").is_some_and(|m| m != "0") {
             return Err(ReplayError::NotLockstep {
                 file: path.to_path_buf(),
             });
         }
+        let publish = if opts.publish.is_empty() {
+            default_publish(&recorded, &opts.consumers)
+        } else {
+            opts.publish.clone()
+        };
         let mut sinks = BTreeMap::new();
-        for t in &opts.publish {
+        for t in &publish {
             if t == s::INSTANCE || t == s::TICK_DONE || t == s::HEARTBEAT {
                 return Err(ReplayError::NotReplayable(t.clone()));
             }
-            if service_info(t).is_none() {
-                return Err(ReplayError::UnknownTopic {
-                    file: path.to_path_buf(),
-                    topic: t.clone(),
-                });
-            }
-            let Some(c) = recorded.get(t) else {
-                return Err(ReplayError::TopicNotRecorded {
-                    file: path.to_path_buf(),
-                    topic: t.clone(),
-                });
-            };
-            check_channel(path, c)?;
+            check_channel(path, recorded_channel(path, &recorded, t)?)?;
             if let Some(sink) = make_sink(bus, t)? {
                 sinks.insert(t.clone(), sink);
             }
         }
         let mut sources = Vec::new();
         for (t, node) in &opts.compare {
-            let Some(c) = recorded.get(t) else {
-                return Err(ReplayError::TopicNotRecorded {
-                    file: path.to_path_buf(),
-                    topic: t.clone(),
-                });
-            };
-            check_channel(path, c)?;
+            check_channel(path, recorded_channel(path, &recorded, t)?)?;
             if let Some(src) = make_source(bus, t)? {
                 sources.push((t.clone(), *node, src));
             }
@@ -222,24 +200,6 @@ impl LockstepPorts {
     }
 }
 
-fn recorded_channels(file: &RecordFile) -> BTreeMap<String, crate::reader::ChannelInfo> {
-    let mut out = BTreeMap::new();
-    for m in file.raw_messages() {
-        let Ok(m) = m else { break };
-        out.entry(m.channel.topic.clone())
-            .or_insert_with(|| (*m.channel).clone());
-    }
-    out
-}
-
-/// The clock mode the recorder wrote into the file's `aisle` metadata (`"0"` lockstep).
-fn recorded_mode(file: &RecordFile) -> Option<String> {
-    let meta = file.metadata().ok()?;
-    meta.into_iter()
-        .find(|(name, _)| name == "aisle")
-        .and_then(|(_, m)| m.get("mode").cloned())
-}
-
 /// Replays `file` tick by tick through `ports`; `alive` is asked while waiting whether
 /// the consumers still run (an `Err` names the one that died and ends the replay).
 pub fn replay_lockstep(
@@ -249,7 +209,7 @@ pub fn replay_lockstep(
     alive: &mut dyn FnMut() -> Result<(), String>,
 ) -> Result<LockstepSummary, ReplayError> {
     let batch_opts = BatchOptions {
-        publish: opts.publish.clone(),
+        publish: ports.sinks.keys().cloned().collect(),
         outputs: opts.compare.clone(),
     };
     let mut batches = TickBatches::new(file, batch_opts);

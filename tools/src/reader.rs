@@ -175,6 +175,47 @@ impl RecordFile {
         Ok(out)
     }
 
+    /// Calls `f` with the topic and payload of every raw message, in file order, in one
+    /// reused aligned buffer (so `view` gives the message). Returns where a damaged file
+    /// stops being readable.
+    pub fn for_each_payload(
+        &self,
+        mut f: impl FnMut(&str, &crate::aligned::AlignedBuf),
+    ) -> Option<String> {
+        let mut buf = crate::aligned::AlignedBuf::new();
+        for m in self.raw_messages() {
+            match m {
+                Ok(m) => {
+                    buf.set(&m.data);
+                    f(&m.channel.topic, &buf);
+                }
+                Err(e) => return Some(e.to_string()),
+            }
+        }
+        None
+    }
+
+    /// Raw channels that have at least one readable sample, by topic (one pass over the
+    /// messages).
+    pub fn recorded_raw_channels(&self) -> BTreeMap<String, ChannelInfo> {
+        let mut out = BTreeMap::new();
+        for m in self.raw_messages() {
+            let Ok(m) = m else { break };
+            out.entry(m.channel.topic.clone())
+                .or_insert_with(|| (*m.channel).clone());
+        }
+        out
+    }
+
+    /// The run's metadata the recorder wrote (`aisle`: seed, clock mode, tick length,
+    /// start pose...); empty when the file has none.
+    pub fn run_metadata(&self) -> BTreeMap<String, String> {
+        self.metadata()
+            .ok()
+            .and_then(|m| m.into_iter().find(|(n, _)| n == "aisle").map(|(_, m)| m))
+            .unwrap_or_default()
+    }
+
     /// Every metadata record (name -> entries) readable before any damage.
     pub fn metadata(&self) -> Result<Vec<MetadataRecord>, ReadError> {
         let mut out = Vec::new();

@@ -6,7 +6,6 @@
 //!
 //! Reads the raw channels of the file; knows the message layouts, not the processes.
 
-use crate::aligned::AlignedBuf;
 use crate::canvas::{Canvas, CanvasError, Rect, Rgb};
 use crate::reader::{ReadError, RecordFile};
 use aisle_messages::services as s;
@@ -99,73 +98,63 @@ struct Run {
 
 fn collect(file: &RecordFile, opts: &RenderOptions) -> Run {
     let mut run = Run::default();
-    let mut buf = AlignedBuf::new();
-    for m in file.raw_messages() {
-        let m = match m {
-            Ok(m) => m,
-            Err(e) => {
-                run.truncated = Some(e.to_string());
-                break;
+    let truncated = file.for_each_payload(|topic, buf| match topic {
+        s::GLOBAL_MAP => {
+            if let Some(g) = buf.view::<OccupancyGrid>()
+                && (g.width as usize).saturating_mul(g.height as usize) <= MAX_GRID_CELLS
+                && g.width > 0
+                && g.resolution > 0.0
+            {
+                let mut copy = crate::aligned::zeroed_box::<OccupancyGrid>();
+                *copy = *g;
+                run.map = Some(copy);
             }
-        };
-        buf.set(&m.data);
-        match m.channel.topic.as_str() {
-            s::GLOBAL_MAP => {
-                if let Some(g) = buf.view::<OccupancyGrid>()
-                    && (g.width as usize).saturating_mul(g.height as usize) <= MAX_GRID_CELLS
-                    && g.width > 0
-                    && g.resolution > 0.0
-                {
-                    let mut copy = crate::aligned::zeroed_box::<OccupancyGrid>();
-                    *copy = *g;
-                    run.map = Some(copy);
-                }
-            }
-            s::WORLD_TRUTH => {
-                if let Some(w) = buf.view::<WorldTruth>() {
-                    let n = (w.len as usize).min(MAX_BODIES);
-                    if run.first_bodies.is_empty() {
-                        run.first_bodies = w.bodies[..n].to_vec();
-                    }
-                    run.last_bodies = w.bodies[..n].to_vec();
-                }
-            }
-            s::CONTROLLER_GOAL => {
-                if let Some(g) = buf.view::<ControllerGoal>() {
-                    let n = (g.len as usize).min(MAX_PATH_POSES);
-                    if n > 0 && run.references.last().is_none_or(|r| r.0 != g.goal_id) {
-                        let pts = g.reference[..n].iter().map(|p| (p.x, p.y)).collect();
-                        run.references.push((g.goal_id, pts));
-                    }
-                }
-            }
-            s::CONTROLLER_BAND => {
-                if let Some(b) = buf.view::<ControllerBand>() {
-                    let n = (b.len as usize).min(MAX_COMMANDS);
-                    if opts.band_every > 0 && n > 1 && run.band_count % opts.band_every == 0 {
-                        run.bands
-                            .push(b.poses[..n].iter().map(|p| (p.x, p.y)).collect());
-                    }
-                    run.band_count += 1;
-                }
-            }
-            s::MISSION_STATUS => {
-                if let Some(st) = buf.view::<MissionStatus>() {
-                    run.segment = st.segment;
-                    run.max_segment = run.max_segment.max(st.segment);
-                }
-            }
-            s::ROBOT_STATE => {
-                if let Some(r) = buf.view::<RobotState>()
-                    && r.pose.x.is_finite()
-                    && r.pose.y.is_finite()
-                {
-                    run.driven.push((r.pose.x, r.pose.y, run.segment));
-                }
-            }
-            _ => {}
         }
-    }
+        s::WORLD_TRUTH => {
+            if let Some(w) = buf.view::<WorldTruth>() {
+                let n = (w.len as usize).min(MAX_BODIES);
+                if run.first_bodies.is_empty() {
+                    run.first_bodies = w.bodies[..n].to_vec();
+                }
+                run.last_bodies = w.bodies[..n].to_vec();
+            }
+        }
+        s::CONTROLLER_GOAL => {
+            if let Some(g) = buf.view::<ControllerGoal>() {
+                let n = (g.len as usize).min(MAX_PATH_POSES);
+                if n > 0 && run.references.last().is_none_or(|r| r.0 != g.goal_id) {
+                    let pts = g.reference[..n].iter().map(|p| (p.x, p.y)).collect();
+                    run.references.push((g.goal_id, pts));
+                }
+            }
+        }
+        s::CONTROLLER_BAND => {
+            if let Some(b) = buf.view::<ControllerBand>() {
+                let n = (b.len as usize).min(MAX_COMMANDS);
+                if opts.band_every > 0 && n > 1 && run.band_count % opts.band_every == 0 {
+                    run.bands
+                        .push(b.poses[..n].iter().map(|p| (p.x, p.y)).collect());
+                }
+                run.band_count += 1;
+            }
+        }
+        s::MISSION_STATUS => {
+            if let Some(st) = buf.view::<MissionStatus>() {
+                run.segment = st.segment;
+                run.max_segment = run.max_segment.max(st.segment);
+            }
+        }
+        s::ROBOT_STATE => {
+            if let Some(r) = buf.view::<RobotState>()
+                && r.pose.x.is_finite()
+                && r.pose.y.is_finite()
+            {
+                run.driven.push((r.pose.x, r.pose.y, run.segment));
+            }
+        }
+        _ => {}
+    });
+    run.truncated = truncated;
     run
 }
 

@@ -172,12 +172,32 @@ pub fn check_channel(file: &std::path::Path, c: &ChannelInfo) -> Result<ServiceI
     Ok(ours)
 }
 
+/// The recorded channel of `topic`: a service of this build that the file holds.
+pub(crate) fn recorded_channel<'a>(
+    path: &std::path::Path,
+    recorded: &'a BTreeMap<String, ChannelInfo>,
+    topic: &str,
+) -> Result<&'a ChannelInfo, ReplayError> {
+    if service_info(topic).is_none() {
+        return Err(ReplayError::UnknownTopic {
+            file: path.to_path_buf(),
+            topic: topic.to_string(),
+        });
+    }
+    recorded
+        .get(topic)
+        .ok_or_else(|| ReplayError::TopicNotRecorded {
+            file: path.to_path_buf(),
+            topic: topic.to_string(),
+        })
+}
+
 /// The services a replay publishes, after checking each against this build.
 pub fn plan(
     file: &RecordFile,
     topics: &[String],
 ) -> Result<(Vec<String>, Option<String>), ReplayError> {
-    let recorded = recorded_channels(file);
+    let recorded = file.recorded_raw_channels();
     let path = file.path();
     let selected: Vec<String> = if topics.is_empty() {
         recorded
@@ -190,18 +210,7 @@ pub fn plan(
             if t == s::INSTANCE {
                 return Err(ReplayError::NotReplayable(t.clone()));
             }
-            if service_info(t).is_none() {
-                return Err(ReplayError::UnknownTopic {
-                    file: path.to_path_buf(),
-                    topic: t.clone(),
-                });
-            }
-            if !recorded.contains_key(t) {
-                return Err(ReplayError::TopicNotRecorded {
-                    file: path.to_path_buf(),
-                    topic: t.clone(),
-                });
-            }
+            recorded_channel(path, &recorded, t)?;
         }
         topics.to_vec()
     };
@@ -216,18 +225,6 @@ pub fn plan(
         }
     }
     Ok((selected, foreign))
-}
-
-/// Raw channels that have at least one readable sample, by topic.
-fn recorded_channels(file: &RecordFile) -> BTreeMap<String, ChannelInfo> {
-    let mut out = BTreeMap::new();
-    for m in file.raw_messages() {
-        let Ok(m) = m else { break };
-        if !out.contains_key(&m.channel.topic) {
-            out.insert(m.channel.topic.clone(), (*m.channel).clone());
-        }
-    }
-    out
 }
 
 /// Replays a recorded file into a live instance (see the module docs).
@@ -322,7 +319,7 @@ pub fn replay(opts: &ReplayOptions) -> Result<ReplaySummary, ReplayError> {
 }
 
 /// Sleeps until the monotonic clock reaches `due`; false when a stop was requested.
-pub(crate) fn sleep_until(due: u64) -> bool {
+fn sleep_until(due: u64) -> bool {
     loop {
         if signals::stop_requested() {
             return false;

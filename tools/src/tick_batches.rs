@@ -14,7 +14,7 @@
 
 use crate::reader::{FileMessage, Messages, ReadError, RecordFile};
 use aisle_messages::{NodeKind, services as s};
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeMap;
 
 /// What to take out of the file.
 #[derive(Debug, Clone, Default)]
@@ -103,9 +103,9 @@ pub struct TickBatches<'a> {
     messages: Messages<'a>,
     opts: BatchOptions,
     pending: BTreeMap<u64, TickBatch>,
-    /// (service, source, tick) already taken for publishing: a simulator restarted
+    /// Newest tick taken for publishing per (service, source): a simulator restarted
     /// mid-run repeats the tick it died in, and that input is published once.
-    seen: BTreeSet<(String, u32, u64)>,
+    taken: BTreeMap<(String, u32), u64>,
     max_tick: Option<u64>,
     ended: bool,
     failure: Option<ReadError>,
@@ -117,7 +117,7 @@ impl<'a> TickBatches<'a> {
             messages: file.raw_messages(),
             opts,
             pending: BTreeMap::new(),
-            seen: BTreeSet::new(),
+            taken: BTreeMap::new(),
             max_tick: None,
             ended: false,
             failure: None,
@@ -156,9 +156,11 @@ impl<'a> TickBatches<'a> {
             let tick = if acts_after_tick(h.source) {
                 h.tick + 1
             } else {
-                if !self.seen.insert((topic.to_string(), h.source, h.tick)) {
+                let key = (topic.to_string(), h.source);
+                if self.taken.get(&key).is_some_and(|&t| t >= h.tick) {
                     return;
                 }
+                self.taken.insert(key, h.tick);
                 h.tick
             };
             self.batch(tick, h.stamp_ns).publish.push(m);

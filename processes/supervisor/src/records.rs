@@ -152,15 +152,7 @@ fn replay_lockstep(a: &ReplayArgs, instance: Option<Instance>) -> ExitCode {
             None => return fail(format!("--wait-for: no node named `{name}`")),
         }
     }
-    let file = match RecordFile::open(&a.file) {
-        Ok(f) => f,
-        Err(e) => return fail(e),
-    };
-    let publish = if a.topics.is_empty() {
-        LockstepOptions::default_publish(&file, &consumers)
-    } else {
-        a.topics.clone()
-    };
+    let publish = a.topics.clone();
     let start_offset_ns = (a.start * 1e9).round() as u64;
     let result = match instance {
         Some(instance) => {
@@ -173,6 +165,7 @@ fn replay_lockstep(a: &ReplayArgs, instance: Option<Instance>) -> ExitCode {
                 ack_timeout: Duration::from_secs(60),
             };
             (|| -> anyhow::Result<_> {
+                let file = RecordFile::open(&a.file)?;
                 let (bus, _) = Bus::join(&instance, NodeKind::Replay, Duration::from_secs(10))?;
                 let mut ports = LockstepPorts::open(&bus, &file, &opts)?;
                 // Let the live subscribers connect to the new publishers.

@@ -14,7 +14,6 @@ use aisle_messages::{Heartbeat, NodeKind, NodeState, TickMode, services as s};
 use aisle_tools::RecordFile;
 use aisle_tools::lockstep::{LockstepOptions, LockstepPorts, LockstepSummary, replay_lockstep};
 use anyhow::{Context, anyhow, bail};
-use std::collections::BTreeMap;
 use std::path::{Component, Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -81,14 +80,6 @@ fn extract_config(file: &RecordFile, dir: &Path) -> anyhow::Result<usize> {
     Ok(attachments.len())
 }
 
-/// The recorder's run metadata (`aisle`), empty when absent.
-fn run_metadata(file: &RecordFile) -> BTreeMap<String, String> {
-    file.metadata()
-        .ok()
-        .and_then(|m| m.into_iter().find(|(n, _)| n == "aisle").map(|(_, m)| m))
-        .unwrap_or_default()
-}
-
 /// A directory removed when dropped.
 struct TempDir(PathBuf);
 
@@ -129,7 +120,7 @@ pub fn replay_into_fresh_group(
     plan: &FreshGroup,
 ) -> anyhow::Result<LockstepSummary> {
     let file = RecordFile::open(file_path)?;
-    let meta = run_metadata(&file);
+    let meta = file.run_metadata();
     let base = crate::session::run_base_dir();
     let instance = Instance::unique(&base);
     let _extracted;
@@ -152,11 +143,10 @@ pub fn replay_into_fresh_group(
     let seed: u64 = get("seed", "0").parse().unwrap_or(0);
     let dt_ns = get("dt_ns", "100000000");
     let every = get("controller_every", "5");
-    let start: Vec<String> = get("start", "0 0 0")
+    let start = get("start", "0 0 0")
         .split_whitespace()
-        .map(String::from)
-        .collect();
-    let start = start.join(",");
+        .collect::<Vec<_>>()
+        .join(",");
 
     let opts = LockstepOptions {
         file: file_path.to_path_buf(),

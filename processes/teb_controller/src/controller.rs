@@ -326,13 +326,7 @@ impl TebController {
             self.side = None;
         }
         self.band.unwrap_headings();
-        self.band.resize(
-            cfg.band.dt_ref,
-            cfg.band.dt_hysteresis,
-            cfg.band.min_poses,
-            cfg.band.max_poses,
-        );
-        ensure_min_poses(&mut self.band, cfg.band.min_poses);
+        resize(&mut self.band, cfg);
         let last = self.band.poses[self.band.poses.len() - 1].theta;
         goal.theta = last + wrap_angle(goal.theta - last);
 
@@ -369,13 +363,7 @@ impl TebController {
         // TEB's outer loop, once: the optimiser stretches segments where the band swerves
         // or speeds up, so a long segment is split (and short ones merged).
         if has_long_segment(&self.band, cfg) {
-            self.band.resize(
-                cfg.band.dt_ref,
-                cfg.band.dt_hysteresis,
-                cfg.band.min_poses,
-                cfg.band.max_poses,
-            );
-            ensure_min_poses(&mut self.band, cfg.band.min_poses);
+            resize(&mut self.band, cfg);
             // A merged segment's chord no longer follows the mean heading of its ends.
             if sigma != 0.0 {
                 self.scp.project_kinematics(&mut self.band);
@@ -421,13 +409,7 @@ impl TebController {
                 sigma,
             );
             self.alt.unwrap_headings();
-            self.alt.resize(
-                cfg.band.dt_ref,
-                cfg.band.dt_hysteresis,
-                cfg.band.min_poses,
-                cfg.band.max_poses,
-            );
-            ensure_min_poses(&mut self.alt, cfg.band.min_poses);
+            resize(&mut self.alt, cfg);
             if detour::repair(
                 &mut self.alt,
                 map,
@@ -519,6 +501,14 @@ fn has_long_segment(band: &Band, cfg: &TebConfig) -> bool {
             .dts
             .iter()
             .any(|&t| t > cfg.band.dt_ref + cfg.band.dt_hysteresis)
+}
+
+/// Resizes the band around the reference time step (with hysteresis) and splits it up
+/// to the minimum number of poses.
+fn resize(band: &mut Band, cfg: &TebConfig) {
+    let b = &cfg.band;
+    band.resize(b.dt_ref, b.dt_hysteresis, b.min_poses, b.max_poses);
+    ensure_min_poses(band, b.min_poses);
 }
 
 /// Splits the longest segment until the band has `min_poses` poses.
