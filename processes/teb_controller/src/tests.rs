@@ -9,6 +9,8 @@ use aisle_geometry::{
 
 use crate::{ExitFlag, Goal, Mode, Snapshot, StepOutput, TebConfig, TebController, TebError};
 
+mod golden;
+
 const ROBOT: Footprint = Footprint::new(0.508, 0.43);
 const RACK: Footprint = Footprint::new(0.88, 0.8);
 /// Controller period and look-ahead of the seed.
