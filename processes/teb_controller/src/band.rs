@@ -145,6 +145,14 @@ impl Band {
     }
 }
 
+/// Distance between two band poses: a plain root, as band coordinates cannot overflow
+/// and `hypot`'s care for that costs several times more on these hot paths.
+#[inline]
+pub(crate) fn chord(a: &Pose2, b: &Pose2) -> f64 {
+    let (dx, dy) = (b.x - a.x, b.y - a.y);
+    (dx * dx + dy * dy).sqrt()
+}
+
 /// The pose halfway along the circular arc that leaves `a` and reaches `b` with the
 /// chord along the mean heading (the band's kinematic model), so splitting a segment
 /// keeps both halves on that arc instead of cutting the corner. The chord midpoint is

@@ -9,6 +9,7 @@
 
 use crate::TebError;
 use aisle_config::ConfigError;
+use aisle_geometry::Direction;
 use serde::Deserialize;
 use std::path::Path;
 
@@ -208,6 +209,17 @@ fn non_negative(key: &'static str, v: f64) -> Result<(), TebError> {
         Ok(())
     } else {
         Err(bad(key, format!("{v} is not a non-negative number")))
+    }
+}
+
+impl LimitsConfig {
+    /// Speed limit when driving in `direction`, m/s (the forward one on the spot).
+    pub(crate) fn speed_limit(&self, direction: Direction) -> f64 {
+        if direction == Direction::Reverse {
+            self.max_reverse_velocity
+        } else {
+            self.max_velocity
+        }
     }
 }
 

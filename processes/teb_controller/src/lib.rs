@@ -22,16 +22,22 @@ mod clearance;
 mod config;
 mod controller;
 mod detour;
+mod direction;
 mod error;
 mod feasibility;
 mod goal;
 mod kinematics;
+mod leg;
 pub mod node;
+mod objective;
 mod output;
+mod planner;
 mod qp;
 mod reference;
 mod scp;
+mod seed;
 mod timing;
+mod trust_region;
 
 #[cfg(test)]
 mod tests;

@@ -9,7 +9,7 @@
 //! change is spread over; both are repaired here instead of by another subproblem.
 //! Knows nothing of obstacles or costs.
 
-use crate::band::Band;
+use crate::band::{Band, chord};
 
 /// Limits and boundary conditions of the retiming.
 #[derive(Debug, Clone, Copy)]
@@ -21,6 +21,20 @@ pub(crate) struct Timing {
     pub at_rest: bool,
     pub max_acceleration: f64,
     pub max_angular_acceleration: f64,
+}
+
+/// Lengthens every time step too short for its segment under the velocity limits
+/// `vlim` (m/s) and `wmax` (rad/s): the cones' numerical slack, or a split whose halves
+/// follow an arc and so are together longer than the chord they replace.
+pub(crate) fn stretch_to_velocity_limits(band: &mut Band, vlim: f64, wmax: f64) {
+    for k in 0..band.dts.len() {
+        let a = band.poses[k];
+        let b = band.poses[k + 1];
+        let need = (chord(&a, &b) / vlim).max((b.theta - a.theta).abs() / wmax);
+        if band.dts[k] < need {
+            band.dts[k] = need;
+        }
+    }
 }
 
 /// Passes over the band at most (slowing one segment can make the pair after it too
