@@ -4,7 +4,7 @@
 mod support;
 
 use aisle_bus::{Bus, Instance};
-use aisle_messages::TickMode;
+use aisle_messages::{TickMode, topics};
 use std::time::Duration;
 use support::*;
 
@@ -300,7 +300,7 @@ fn rec_ticks(file: &std::path::Path) -> usize {
         .raw_messages()
         .filter(|m| {
             m.as_ref()
-                .is_ok_and(|m| m.channel.topic == aisle_messages::services::TICK)
+                .is_ok_and(|m| m.channel.topic == topics::TICK.name)
         })
         .count()
 }

@@ -3,7 +3,7 @@
 //! band every 5th tick) written as raw and viewer channels. The recorder must keep up
 //! with a lockstep run of about 300 ticks/s, i.e. at most ~3.3 ms per tick.
 
-use aisle_messages::services as s;
+use aisle_messages::topics::names as s;
 use aisle_messages::{
     ControllerBand, Message, OccupancyGrid, PointCloud, RobotState, Tick, TickDone, Trajectory,
     WorldTruth,

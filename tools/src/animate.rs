@@ -9,7 +9,7 @@
 
 use crate::reader::RecordFile;
 use crate::render::{RenderError, RenderOptions, SEGMENT_COLORS, render_file};
-use aisle_messages::services as s;
+use aisle_messages::topics::names as s;
 use aisle_messages::{
     ControllerBand, MAX_BODIES, MAX_COMMANDS, MissionStatus, RobotState, WorldTruth,
 };

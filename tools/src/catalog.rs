@@ -1,93 +1,17 @@
-//! The recorded services: each service name paired with its message type, and the
-//! per-type layout hash written into channel metadata.
+//! The recorded services: the topic table (`aisle_messages::topics`) with the per-type
+//! layout hash written into channel metadata, and who produces each (the graph).
 //!
-//! This module knows which type travels on which service (from `aisle_messages`); it
-//! does not know how messages are stored in a file or published on the bus.
+//! Knows what travels where; it does not know how messages are stored in a file or
+//! published on the bus.
 
-use aisle_messages::services as s;
+use aisle_messages::topics::{self, TopicInfo};
 use aisle_messages::{
-    ControllerBand, ControllerGoal, Heartbeat, InstanceInfo, MapperControl, Message, MissionStatus,
+    ControllerBand, ControllerGoal, Heartbeat, InstanceInfo, MapperControl, MissionStatus,
     NodeKind, OccupancyGrid, PlanRequest, PlanResponse, PointCloud, RobotState, SimCommand,
     SimState, Tick, TickDone, Trajectory, WorldTruth,
 };
-
-/// Calls `$m!(service_const, Type)` for every service of the catalogue. Used to build
-/// typed ports (subscribers, publishers) without repeating the table.
-#[macro_export]
-#[doc(hidden)]
-macro_rules! for_each_service {
-    ($m:ident) => {
-        $m!(
-            aisle_messages::services::INSTANCE,
-            aisle_messages::InstanceInfo
-        );
-        $m!(aisle_messages::services::TICK, aisle_messages::Tick);
-        $m!(
-            aisle_messages::services::TICK_DONE,
-            aisle_messages::TickDone
-        );
-        $m!(
-            aisle_messages::services::HEARTBEAT,
-            aisle_messages::Heartbeat
-        );
-        $m!(
-            aisle_messages::services::ROBOT_STATE,
-            aisle_messages::RobotState
-        );
-        $m!(
-            aisle_messages::services::WORLD_TRUTH,
-            aisle_messages::WorldTruth
-        );
-        $m!(
-            aisle_messages::services::SIM_COMMAND,
-            aisle_messages::SimCommand
-        );
-        $m!(
-            aisle_messages::services::SIM_STATE,
-            aisle_messages::SimState
-        );
-        $m!(
-            aisle_messages::services::POINT_CLOUD,
-            aisle_messages::PointCloud
-        );
-        $m!(
-            aisle_messages::services::GLOBAL_MAP,
-            aisle_messages::OccupancyGrid
-        );
-        $m!(
-            aisle_messages::services::LOCAL_MAP,
-            aisle_messages::OccupancyGrid
-        );
-        $m!(
-            aisle_messages::services::MAPPER_CONTROL,
-            aisle_messages::MapperControl
-        );
-        $m!(
-            aisle_messages::services::PLAN_REQUEST,
-            aisle_messages::PlanRequest
-        );
-        $m!(
-            aisle_messages::services::PLAN_RESPONSE,
-            aisle_messages::PlanResponse
-        );
-        $m!(
-            aisle_messages::services::CONTROLLER_GOAL,
-            aisle_messages::ControllerGoal
-        );
-        $m!(
-            aisle_messages::services::TRAJECTORY,
-            aisle_messages::Trajectory
-        );
-        $m!(
-            aisle_messages::services::CONTROLLER_BAND,
-            aisle_messages::ControllerBand
-        );
-        $m!(
-            aisle_messages::services::MISSION_STATUS,
-            aisle_messages::MissionStatus
-        );
-    };
-}
+use aisle_node::Graph;
+use std::sync::LazyLock;
 
 /// One service and the layout of the message it carries.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -101,13 +25,13 @@ pub struct ServiceInfo {
 }
 
 impl ServiceInfo {
-    fn of<M: Message>(service: &'static str) -> ServiceInfo {
+    fn of(topic: &TopicInfo) -> ServiceInfo {
         ServiceInfo {
-            service,
-            type_name: M::TYPE_NAME,
-            size: std::mem::size_of::<M>(),
-            align: std::mem::align_of::<M>(),
-            layout_hash: layout_hash(M::TYPE_NAME),
+            service: topic.name,
+            type_name: topic.type_name,
+            size: topic.size,
+            align: topic.align,
+            layout_hash: layout_hash(topic.type_name),
         }
     }
 
@@ -116,52 +40,22 @@ impl ServiceInfo {
     }
 }
 
-/// Every service, in the order of [`for_each_service!`].
+/// Every service, in the order of `aisle_messages::topics::ALL`.
 pub fn services() -> Vec<ServiceInfo> {
-    vec![
-        ServiceInfo::of::<InstanceInfo>(s::INSTANCE),
-        ServiceInfo::of::<Tick>(s::TICK),
-        ServiceInfo::of::<TickDone>(s::TICK_DONE),
-        ServiceInfo::of::<Heartbeat>(s::HEARTBEAT),
-        ServiceInfo::of::<RobotState>(s::ROBOT_STATE),
-        ServiceInfo::of::<WorldTruth>(s::WORLD_TRUTH),
-        ServiceInfo::of::<SimCommand>(s::SIM_COMMAND),
-        ServiceInfo::of::<SimState>(s::SIM_STATE),
-        ServiceInfo::of::<PointCloud>(s::POINT_CLOUD),
-        ServiceInfo::of::<OccupancyGrid>(s::GLOBAL_MAP),
-        ServiceInfo::of::<OccupancyGrid>(s::LOCAL_MAP),
-        ServiceInfo::of::<MapperControl>(s::MAPPER_CONTROL),
-        ServiceInfo::of::<PlanRequest>(s::PLAN_REQUEST),
-        ServiceInfo::of::<PlanResponse>(s::PLAN_RESPONSE),
-        ServiceInfo::of::<ControllerGoal>(s::CONTROLLER_GOAL),
-        ServiceInfo::of::<Trajectory>(s::TRAJECTORY),
-        ServiceInfo::of::<ControllerBand>(s::CONTROLLER_BAND),
-        ServiceInfo::of::<MissionStatus>(s::MISSION_STATUS),
-    ]
+    topics::ALL.iter().map(ServiceInfo::of).collect()
 }
 
 /// The catalogue entry of `service`, if it is one of ours.
 pub fn service_info(service: &str) -> Option<ServiceInfo> {
-    services().into_iter().find(|i| i.service == service)
+    topics::info(service).map(|t| ServiceInfo::of(&t))
 }
 
-/// The process that publishes `service` in a run (`TickDone` and heartbeats come from
-/// every process: `None`). The supervisor also republishes some state after a restart.
+/// The process that publishes `service` in a run, from the shipped graph (`TickDone`
+/// and heartbeats come from every process: `None`). The supervisor also republishes
+/// some state after a restart.
 pub fn producer(service: &str) -> Option<NodeKind> {
-    Some(match service {
-        s::TICK | s::ROBOT_STATE | s::WORLD_TRUTH | s::SIM_STATE => NodeKind::Simulator,
-        s::POINT_CLOUD => NodeKind::Lidar,
-        s::GLOBAL_MAP | s::LOCAL_MAP => NodeKind::Mapper,
-        s::PLAN_RESPONSE => NodeKind::GlobalPlanner,
-        s::TRAJECTORY | s::CONTROLLER_BAND => NodeKind::TebController,
-        s::INSTANCE
-        | s::SIM_COMMAND
-        | s::MAPPER_CONTROL
-        | s::PLAN_REQUEST
-        | s::CONTROLLER_GOAL
-        | s::MISSION_STATUS => NodeKind::Supervisor,
-        _ => return None,
-    })
+    static GRAPH: LazyLock<Graph> = LazyLock::new(Graph::shipped);
+    GRAPH.producer(service)
 }
 
 fn fnv1a(hash: &mut u64, bytes: &[u8]) {
@@ -222,28 +116,24 @@ mod tests {
     #[test]
     fn every_service_is_listed_once_and_hashes_differ_by_type() {
         let all = services();
-        // Every service name the message crate declares is recorded.
-        let declared = include_str!("../../interfaces/messages/src/services.rs")
-            .matches("pub const ")
-            .count();
-        assert_eq!(all.len(), declared);
+        assert_eq!(all.len(), topics::ALL.len());
         let mut names: Vec<_> = all.iter().map(|i| i.service).collect();
         names.sort();
         names.dedup();
         assert_eq!(names.len(), all.len());
-        let g = service_info(s::GLOBAL_MAP).unwrap();
-        let l = service_info(s::LOCAL_MAP).unwrap();
+        let g = service_info(topics::GLOBAL_MAP.name).unwrap();
+        let l = service_info(topics::LOCAL_MAP.name).unwrap();
         assert_eq!(g.layout_hash, l.layout_hash);
         for i in &all {
             let kind = producer(i.service);
             assert_eq!(
                 kind.is_none(),
-                i.service == s::TICK_DONE || i.service == s::HEARTBEAT,
+                i.service == topics::TICK_DONE.name || i.service == topics::HEARTBEAT.name,
                 "{}",
                 i.service
             );
         }
-        let t = service_info(s::TICK).unwrap();
+        let t = service_info(topics::TICK.name).unwrap();
         assert_ne!(t.layout_hash, g.layout_hash);
         assert_eq!(t.size, 72);
         assert!(all.iter().all(|i| i.align <= 8));

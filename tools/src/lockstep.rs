@@ -17,8 +17,11 @@ use crate::reader::ChannelInfo;
 use crate::reader::RecordFile;
 use crate::replay::{RawSink, ReplayError, check_channel, make_sink, recorded_channel};
 use crate::tick_batches::{BatchOptions, TickBatch, TickBatches};
-use aisle_bus::{Bus, BusError, Qos, Subscriber, WaitOutcome, message_bytes, signals};
-use aisle_messages::{Message, NodeKind, TickDone, services as s};
+use aisle_bus::{Bus, BusError, Subscriber, message_bytes, signals};
+use aisle_messages::topics::names as s;
+use aisle_messages::topics::{Topic, TopicVisitor};
+use aisle_messages::{Message, NodeKind, TickDone, topics};
+use aisle_node::tick::Awaited;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -135,16 +138,26 @@ impl<M: Message> RawSource for Subscriber<M> {
     }
 }
 
-fn make_source(bus: &Bus, service: &str) -> Result<Option<Box<dyn RawSource>>, BusError> {
-    macro_rules! source {
-        ($svc:expr, $ty:ty) => {
-            if service == $svc {
-                return Ok(Some(Box::new(bus.subscriber::<$ty>($svc)?)));
-            }
-        };
+struct SourceOf<'b> {
+    bus: &'b Bus,
+    made: Option<Result<Box<dyn RawSource>, BusError>>,
+}
+
+impl TopicVisitor for SourceOf<'_> {
+    fn visit<T: Message>(&mut self, topic: Topic<T>) {
+        self.made = Some(
+            self.bus
+                .subscriber(topic)
+                .map(|p| Box::new(p) as Box<dyn RawSource>),
+        );
     }
-    crate::for_each_service!(source);
-    Ok(None)
+}
+
+/// A subscriber of raw payloads on `service`; `None` when no topic has that name.
+fn make_source(bus: &Bus, service: &str) -> Result<Option<Box<dyn RawSource>>, BusError> {
+    let mut source = SourceOf { bus, made: None };
+    topics::visit(service, &mut source);
+    source.made.transpose()
 }
 
 /// Ports of a lockstep replay, created before any consumer starts so that nothing it
@@ -195,7 +208,7 @@ impl LockstepPorts {
         Ok(LockstepPorts {
             sinks,
             sources,
-            acks: bus.subscriber(s::TICK_DONE)?,
+            acks: bus.subscriber(topics::TICK_DONE)?,
         })
     }
 }
@@ -226,7 +239,7 @@ pub fn replay_lockstep(
         let first = *first_stamp.get_or_insert(batch.stamp_ns);
         if batch.stamp_ns < first.saturating_add(opts.start_offset_ns) {
             for m in &batch.publish {
-                if Qos::for_service(&m.channel.topic).history > 0 {
+                if topics::info(&m.channel.topic).is_some_and(|t| t.qos.history > 0) {
                     latched.insert(m.channel.topic.clone(), m.data.clone());
                 }
             }
@@ -247,7 +260,7 @@ pub fn replay_lockstep(
             .filter(|(n, _)| opts.consumers.contains(n))
             .copied()
             .collect();
-        for (node, status) in wait_acks(ports, &batch, pending, opts.ack_timeout, alive)? {
+        for (node, status) in wait_acks(ports, &batch, &pending, opts.ack_timeout, alive)? {
             if opts.compare.is_empty() {
                 continue;
             }
@@ -325,34 +338,37 @@ fn publish(
 fn wait_acks(
     ports: &LockstepPorts,
     batch: &TickBatch,
-    mut pending: Vec<(NodeKind, u32)>,
+    pending: &[(NodeKind, u32)],
     timeout: Duration,
     alive: &mut dyn FnMut() -> Result<(), String>,
 ) -> Result<Vec<(NodeKind, u32)>, ReplayError> {
+    let mut awaited = Awaited::new();
+    awaited.expect(batch.tick, pending.iter().map(|(n, _)| *n));
     let mut got = Vec::with_capacity(pending.len());
     let started = Instant::now();
-    while !pending.is_empty() {
-        let waited = started.elapsed();
-        if waited >= timeout {
-            return Err(ReplayError::NoAck {
-                nodes: pending.iter().map(|(n, _)| n.name()).collect(),
-                tick: batch.tick,
-                waited_ms: waited.as_millis() as u64,
-            });
-        }
-        let (outcome, sample) = ports.acks.wait_for(
-            (timeout - waited).min(Duration::from_millis(100)),
-            |d| d.header.tick == batch.tick && pending.iter().any(|(n, _)| *n as u32 == d.node),
-            || {},
-        )?;
-        if let (WaitOutcome::Matched, Some(d)) = (outcome, sample) {
-            pending.retain(|(n, _)| *n as u32 != d.node);
-            if let Some(node) = NodeKind::from_u32(d.node) {
+    awaited.wait(
+        &ports.acks,
+        Duration::from_millis(100),
+        |d| {
+            if d.header.tick == batch.tick
+                && let Some(node) = NodeKind::from_u32(d.node)
+                && pending.iter().any(|(n, _)| *n == node)
+                && !got.iter().any(|(n, _)| *n == node)
+            {
                 got.push((node, d.status));
             }
-        } else {
-            alive().map_err(ReplayError::ConsumerGone)?;
-        }
-    }
+        },
+        |a| {
+            let waited = started.elapsed();
+            if waited >= timeout {
+                return Err(ReplayError::NoAck {
+                    nodes: a.pending().iter().map(|n| n.name()).collect(),
+                    tick: batch.tick,
+                    waited_ms: waited.as_millis() as u64,
+                });
+            }
+            alive().map_err(ReplayError::ConsumerGone)
+        },
+    )?;
     Ok(got)
 }

@@ -11,7 +11,7 @@
 
 use crate::aligned::AlignedBuf;
 use crate::reader::{ReadError, RecordFile};
-use aisle_messages::services as s;
+use aisle_messages::topics::names as s;
 use aisle_messages::{NodeKind, PlanResponse, StageStatus, TickDone};
 use std::fmt::Write as _;
 use std::path::Path;

@@ -14,7 +14,9 @@ use crate::catalog::services;
 use crate::viewer::{ViewerConverter, ViewerOptions};
 use crate::writer::{RecordWriter, WriteError, WriterOptions, media_type, trimmed_len};
 use aisle_bus::{Bus, BusError, NodeArgs, NodeError, Publisher, Stamp, Subscriber, clock, signals};
-use aisle_messages::{InstanceInfo, Message, NodeKind, NodeState, StageStatus, TickDone, services};
+use aisle_messages::topics::{Topic, TopicVisitor};
+use aisle_messages::{InstanceInfo, Message, NodeKind, NodeState, StageStatus, TickDone, topics};
+use aisle_node::Graph;
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
 use std::io::BufWriter;
@@ -136,18 +138,39 @@ impl<M: Message> RawSource for Source<M> {
     }
 }
 
-fn subscribe_all(bus: &Bus) -> Result<Vec<Box<dyn RawSource>>, BusError> {
-    let mut sources: Vec<Box<dyn RawSource>> = Vec::new();
-    macro_rules! sub {
-        ($svc:expr, $ty:ty) => {
-            sources.push(Box::new(Source::<$ty> {
-                index: sources.len(),
-                sub: bus.subscriber::<$ty>($svc)?,
-            }));
-        };
+struct Subscribe<'b> {
+    bus: &'b Bus,
+    sources: Vec<Box<dyn RawSource>>,
+    error: Option<BusError>,
+}
+
+impl TopicVisitor for Subscribe<'_> {
+    fn visit<T: Message>(&mut self, topic: Topic<T>) {
+        if self.error.is_some() {
+            return;
+        }
+        match self.bus.subscriber(topic) {
+            Ok(sub) => self.sources.push(Box::new(Source::<T> {
+                index: self.sources.len(),
+                sub,
+            })),
+            Err(e) => self.error = Some(e),
+        }
     }
-    crate::for_each_service!(sub);
-    Ok(sources)
+}
+
+/// One source per topic, in the order of `topics::ALL`.
+fn subscribe_all(bus: &Bus) -> Result<Vec<Box<dyn RawSource>>, BusError> {
+    let mut visitor = Subscribe {
+        bus,
+        sources: Vec::new(),
+        error: None,
+    };
+    topics::for_each(&mut visitor);
+    match visitor.error {
+        Some(e) => Err(e),
+        None => Ok(visitor.sources),
+    }
 }
 
 /// Tracks each publisher's sequence numbers to find lost and repeated samples.
@@ -190,10 +213,12 @@ pub fn run_recorder_with(
     options: &RecorderOptions,
 ) -> Result<RecordSummary, NodeError> {
     let parent = std::os::unix::process::parent_id();
+    let graph = Graph::load_dir(&args.config_dir).map_err(|e| NodeError::setup("recorder", e))?;
+    let mut answer = AnswerRule::of(&graph);
     let (bus, info) = Bus::join(&args.instance, NodeKind::Recorder, NodeArgs::JOIN_TIMEOUT)?;
     let sources = subscribe_all(&bus)?;
     let mut heartbeat = bus.heartbeat()?;
-    let mut acks = bus.publisher::<TickDone>(services::TICK_DONE)?;
+    let mut acks = bus.publisher(topics::TICK_DONE)?;
 
     let file = File::create(out)
         .map_err(|e| NodeError::setup(format!("recorder: output {}", out.display()), e))?;
@@ -257,6 +282,7 @@ pub fn run_recorder_with(
         &mut summary,
         &mut heartbeat,
         parent,
+        &mut answer,
     );
     let _ = heartbeat.send(NodeState::Stopping, "");
 
@@ -297,6 +323,49 @@ pub fn run_recorder_with(
     }
 }
 
+/// When the recorder acknowledges tick t: once every node its graph entry lists in
+/// `after` acknowledged t (raw `TickDone` payloads: node code and tick).
+#[derive(Debug)]
+struct AnswerRule {
+    after: Vec<u32>,
+    /// Ticks with some but not all of those acknowledgements, and who gave them.
+    partial: BTreeMap<u64, Vec<u32>>,
+}
+
+impl AnswerRule {
+    fn of(graph: &Graph) -> AnswerRule {
+        let after = graph
+            .node(NodeKind::Recorder)
+            .map(|d| d.after.iter().filter_map(|a| NodeKind::from_name(a)))
+            .into_iter()
+            .flatten()
+            .map(|k| k as u32)
+            .collect();
+        AnswerRule {
+            after,
+            partial: BTreeMap::new(),
+        }
+    }
+
+    /// Notes `node`'s acknowledgement of `tick`; true when that completes the tick.
+    fn note(&mut self, tick: u64, node: u32) -> bool {
+        if !self.after.contains(&node) {
+            return false;
+        }
+        let seen = self.partial.entry(tick).or_default();
+        if !seen.contains(&node) {
+            seen.push(node);
+        }
+        if seen.len() < self.after.len() {
+            return false;
+        }
+        self.partial.remove(&tick);
+        // Older incomplete ticks will not complete any more.
+        self.partial.retain(|t, _| *t > tick);
+        true
+    }
+}
+
 /// Offsets in a `TickDone` payload: the header's tick and the acknowledging node.
 const TICK_DONE_TICK_AT: usize = 16;
 const TICK_DONE_NODE_AT: usize = 48;
@@ -325,17 +394,18 @@ fn drain_loop(
     summary: &mut RecordSummary,
     heartbeat: &mut aisle_bus::HeartbeatSender,
     parent: u32,
+    answer: &mut AnswerRule,
 ) -> Result<(), NodeError> {
     let mut pool: Vec<Vec<AlignedBuf>> = vec![Vec::new(); sources.len()];
     let mut seqs = SeqTracker::default();
     let mut warned: Vec<bool> = vec![false; sources.len()];
     let mut writer_gone = false;
-    let tick_done = names.iter().position(|n| *n == services::TICK_DONE);
-    // The supervisor's acknowledgement of tick k is the last message of that tick; once
-    // everything before it is drained, the recorder acknowledges k too, and a lockstep
-    // simulator that waits for it loses nothing to the recorder.
-    // Every acknowledgement of the supervisor is answered, a repeated one too: a
-    // restarted simulator repeats the tick it died in and waits for everyone again.
+    let tick_done = names.iter().position(|n| *n == topics::TICK_DONE.name);
+    // The acknowledgements of the recorder's `after` nodes (the supervisor's) are the
+    // last messages of tick k; once everything before them is drained, the recorder
+    // acknowledges k too, and a lockstep simulator that waits for it loses nothing.
+    // A repeated one is answered too: a restarted simulator repeats the tick it died in
+    // and waits for everyone again.
     let mut unanswered: Option<u64> = None;
     let mut last_traffic = std::time::Instant::now();
     loop {
@@ -360,8 +430,9 @@ fn drain_loop(
                         last_traffic = std::time::Instant::now();
                     }
                     if Some(i) == tick_done
-                        && le_u32(bytes, TICK_DONE_NODE_AT) == Some(NodeKind::Supervisor as u32)
+                        && let Some(node) = le_u32(bytes, TICK_DONE_NODE_AT)
                         && let Some(t) = le_u64(bytes, TICK_DONE_TICK_AT)
+                        && answer.note(t, node)
                     {
                         unanswered = Some(unanswered.map_or(t, |s: u64| s.max(t)));
                     }

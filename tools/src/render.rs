@@ -8,7 +8,7 @@
 
 use crate::canvas::{Canvas, CanvasError, Rect, Rgb};
 use crate::reader::{ReadError, RecordFile};
-use aisle_messages::services as s;
+use aisle_messages::topics::names as s;
 use aisle_messages::{
     BodyTruth, ControllerBand, ControllerGoal, MAX_BODIES, MAX_COMMANDS, MAX_GRID_CELLS,
     MAX_PATH_POSES, MissionStatus, OccupancyGrid, RobotState, WorldTruth,

@@ -12,8 +12,10 @@
 
 use crate::catalog::{ServiceInfo, service_info, services};
 use crate::reader::{ChannelInfo, ReadError, RecordFile};
-use aisle_bus::{Bus, BusError, Instance, Publisher, Qos, clock, signals};
-use aisle_messages::{Message, NodeKind, services as s};
+use aisle_bus::{Bus, BusError, Instance, Publisher, clock, signals};
+use aisle_messages::topics::names as s;
+use aisle_messages::topics::{Topic, TopicVisitor};
+use aisle_messages::{Message, NodeKind, topics};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -133,16 +135,26 @@ impl<M: Message> RawSink for Publisher<M> {
     }
 }
 
-pub(crate) fn make_sink(bus: &Bus, service: &str) -> Result<Option<Box<dyn RawSink>>, BusError> {
-    macro_rules! sink {
-        ($svc:expr, $ty:ty) => {
-            if service == $svc {
-                return Ok(Some(Box::new(bus.publisher::<$ty>($svc)?)));
-            }
-        };
+struct SinkOf<'b> {
+    bus: &'b Bus,
+    made: Option<Result<Box<dyn RawSink>, BusError>>,
+}
+
+impl TopicVisitor for SinkOf<'_> {
+    fn visit<T: Message>(&mut self, topic: Topic<T>) {
+        self.made = Some(
+            self.bus
+                .publisher(topic)
+                .map(|p| Box::new(p) as Box<dyn RawSink>),
+        );
     }
-    crate::for_each_service!(sink);
-    Ok(None)
+}
+
+/// A publisher of raw payloads on `service`; `None` when no topic has that name.
+pub(crate) fn make_sink(bus: &Bus, service: &str) -> Result<Option<Box<dyn RawSink>>, BusError> {
+    let mut sink = SinkOf { bus, made: None };
+    topics::visit(service, &mut sink);
+    sink.made.transpose()
 }
 
 /// Checks a recorded raw channel against this build.
@@ -278,7 +290,7 @@ pub fn replay(opts: &ReplayOptions) -> Result<ReplaySummary, ReplayError> {
         }
         if m.log_time < first.saturating_add(opts.start_offset_ns) {
             summary.skipped += 1;
-            if Qos::for_service(&m.channel.topic).history > 0 {
+            if topics::info(&m.channel.topic).is_some_and(|t| t.qos.history > 0) {
                 latched.insert(i, m.data);
             }
             continue;

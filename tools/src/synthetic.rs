@@ -8,7 +8,7 @@
 use crate::aligned::{AlignedBuf, message_bytes, zeroed_box};
 use crate::viewer::{ViewerConverter, ViewerOptions};
 use crate::writer::{RecordWriter, WriteError, WriterOptions};
-use aisle_messages::services as s;
+use aisle_messages::topics::names as s;
 use aisle_messages::{
     ControllerBand, ControllerGoal, Message, MissionStatus, NodeKind, OccupancyGrid, PointCloud,
     RobotState, StageStatus, Tick, TickDone, Trajectory, WorldTruth, write_name,

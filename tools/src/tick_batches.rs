@@ -13,7 +13,8 @@
 //! does not publish anything.
 
 use crate::reader::{FileMessage, Messages, ReadError, RecordFile};
-use aisle_messages::{NodeKind, services as s};
+use aisle_messages::NodeKind;
+use aisle_messages::topics::names as s;
 use std::collections::BTreeMap;
 
 /// What to take out of the file.

@@ -7,7 +7,7 @@
 //! grows the driven path. It knows nothing about files or the bus.
 
 use crate::aligned::AlignedBuf;
-use aisle_messages::services as s;
+use aisle_messages::topics::names as s;
 use aisle_messages::{
     ControllerBand, ControllerGoal, Heartbeat, MAX_BODIES, MAX_CLOUD_POINTS, MAX_COMMANDS,
     MAX_GRID_CELLS, MAX_PATH_POSES, MissionState, MissionStatus, NodeKind, NodeState,

@@ -4,8 +4,9 @@
 //! comparison finds nothing when the answers are the recorded ones and names tick and
 //! field when one cell differs; a consumer that dies ends the replay with its name.
 
-use aisle_bus::{Bus, Instance, Publisher, TickFollower, WaitOutcome};
-use aisle_messages::{NodeKind, OccupancyGrid, PointCloud, StageStatus, TickMode, services as s};
+use aisle_bus::{Bus, Instance, Publisher, Stamp, WaitOutcome};
+use aisle_messages::topics::names as s;
+use aisle_messages::{NodeKind, OccupancyGrid, StageStatus, TickMode, topics};
 use aisle_tools::lockstep::{LockstepOptions, LockstepPorts, replay_lockstep};
 use aisle_tools::replay::ReplayError;
 use aisle_tools::synthetic::write_synthetic;
@@ -62,10 +63,10 @@ fn stand_in(
 ) -> JoinHandle<Seen> {
     std::thread::spawn(move || {
         let (bus, _) = Bus::join(&instance, NodeKind::Mapper, Duration::from_secs(10)).unwrap();
-        let clouds = bus.subscriber::<PointCloud>(s::POINT_CLOUD).unwrap();
-        let mut local: Publisher<OccupancyGrid> = bus.publisher(s::LOCAL_MAP).unwrap();
-        let mut global: Publisher<OccupancyGrid> = bus.publisher(s::GLOBAL_MAP).unwrap();
-        let mut ticks = TickFollower::new(&bus).unwrap();
+        let clouds = bus.subscriber(topics::POINT_CLOUD).unwrap();
+        let mut local: Publisher<OccupancyGrid> = bus.publisher(topics::LOCAL_MAP).unwrap();
+        let mut global: Publisher<OccupancyGrid> = bus.publisher(topics::GLOBAL_MAP).unwrap();
+        let mut acks = bus.publisher(topics::TICK_DONE).unwrap();
         ready.send(()).unwrap();
         let mut seen = Seen {
             clouds: Vec::new(),
@@ -97,7 +98,11 @@ fn stand_in(
             // Slow on purpose: the replay must wait for the acknowledgement.
             std::thread::sleep(Duration::from_millis(2));
             seen.early |= clouds.receive().unwrap().is_some();
-            ticks.done_for(&header, StageStatus::Done, 0).unwrap();
+            acks.publish(Stamp::of(&header), |m| {
+                m.node = NodeKind::Mapper as u32;
+                m.status = StageStatus::Done as u32;
+            })
+            .unwrap();
         }
         seen
     })

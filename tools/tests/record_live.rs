@@ -3,7 +3,8 @@
 //! Its own test binary because the stop request is process-wide.
 
 use aisle_bus::{Bus, Instance, NodeArgs, WaitOutcome, signals};
-use aisle_messages::{Heartbeat, NodeKind, NodeState, RobotState, Tick, TickMode, services as s};
+use aisle_messages::topics::names as s;
+use aisle_messages::{NodeKind, NodeState, RobotState, Tick, TickMode, topics};
 use aisle_tools::aligned::{message_bytes, zeroed_box};
 use aisle_tools::{RecordFile, RecorderOptions, run_recorder_with};
 use std::path::PathBuf;
@@ -23,9 +24,9 @@ fn records_published_payloads_byte_for_byte_and_finalises_on_stop() {
     let instance = Instance::unique(std::path::Path::new("/tmp/aisle-tt"));
     let _cleanup = Cleanup(instance.clone());
     let (bus, announce) = Bus::create_instance(&instance, 7, TickMode::Lockstep).unwrap();
-    let hb = bus.subscriber::<Heartbeat>(s::HEARTBEAT).unwrap();
-    let mut ticks = bus.publisher::<Tick>(s::TICK).unwrap();
-    let mut robot = bus.publisher::<RobotState>(s::ROBOT_STATE).unwrap();
+    let hb = bus.subscriber(topics::HEARTBEAT).unwrap();
+    let mut ticks = bus.publisher(topics::TICK).unwrap();
+    let mut robot = bus.publisher(topics::ROBOT_STATE).unwrap();
 
     let config_dir = std::env::temp_dir().join(format!("aisle-rec-cfg-{}", std::process::id()));
     std::fs::create_dir_all(&config_dir).unwrap();

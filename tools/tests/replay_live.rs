@@ -2,7 +2,8 @@
 //! is byte-identical to what the file holds, for the selected services only.
 
 use aisle_bus::{Bus, Instance};
-use aisle_messages::{RobotState, Tick, TickMode, services as s};
+use aisle_messages::topics::names as s;
+use aisle_messages::{Tick, TickMode, topics};
 use aisle_tools::synthetic::write_synthetic;
 use aisle_tools::{RecordFile, ReplayOptions, WriterOptions, replay};
 use std::fs::File;
@@ -38,8 +39,8 @@ fn replayed_payloads_arrive_byte_identical() {
     let instance = Instance::unique(std::path::Path::new("/tmp/aisle-tt"));
     let _cleanup = Cleanup(instance.clone());
     let (bus, announce) = Bus::create_instance(&instance, 7, TickMode::Lockstep).unwrap();
-    let ticks = bus.subscriber::<Tick>(s::TICK).unwrap();
-    let states = bus.subscriber::<RobotState>(s::ROBOT_STATE).unwrap();
+    let ticks = bus.subscriber(topics::TICK).unwrap();
+    let states = bus.subscriber(topics::ROBOT_STATE).unwrap();
     let mut opts = ReplayOptions::new(&path, instance.clone());
     opts.topics = vec![s::TICK.to_string()];
     // 20 ticks 10 ms apart, at 4x: about 50 ms, well within the tick buffer of 8 when

@@ -4,7 +4,7 @@
 use crate::port::{Publisher, Stamp, Subscriber};
 use crate::{BusError, Instance, WaitOutcome, clock};
 use aisle_messages::{
-    Heartbeat, InstanceInfo, Message, NodeKind, NodeState, TickMode, services, write_name,
+    Heartbeat, InstanceInfo, Message, NodeKind, NodeState, TickMode, Topic, topics, write_name,
 };
 use iceoryx2::config::Config;
 use iceoryx2::prelude::*;
@@ -62,7 +62,7 @@ impl Bus {
     ) -> Result<(Bus, Publisher<InstanceInfo>), BusError> {
         instance.create_root()?;
         let bus = Self::open(instance, NodeKind::Supervisor)?;
-        let mut info = bus.publisher::<InstanceInfo>(services::INSTANCE)?;
+        let mut info = bus.publisher(topics::INSTANCE)?;
         info.publish(Stamp::default(), |m| {
             m.schema_hash = schema_hash;
             m.seed = seed;
@@ -79,7 +79,7 @@ impl Bus {
         timeout: Duration,
     ) -> Result<(Bus, InstanceInfo), BusError> {
         let bus = Self::open(instance, kind)?;
-        let sub = bus.subscriber::<InstanceInfo>(services::INSTANCE)?;
+        let sub = bus.subscriber(topics::INSTANCE)?;
         let (outcome, sample) = sub.wait_for(timeout, |_| true, || {})?;
         let info = match (outcome, sample) {
             (WaitOutcome::Matched, Some(s)) => *s,
@@ -109,17 +109,17 @@ impl Bus {
         &self.instance
     }
 
-    pub fn publisher<M: Message>(&self, service: &'static str) -> Result<Publisher<M>, BusError> {
-        Publisher::new(&self.node, service, self.kind)
+    pub fn publisher<M: Message>(&self, topic: Topic<M>) -> Result<Publisher<M>, BusError> {
+        Publisher::new(&self.node, topic, self.kind)
     }
 
-    pub fn subscriber<M: Message>(&self, service: &'static str) -> Result<Subscriber<M>, BusError> {
-        Subscriber::new(&self.node, service)
+    pub fn subscriber<M: Message>(&self, topic: Topic<M>) -> Result<Subscriber<M>, BusError> {
+        Subscriber::new(&self.node, topic)
     }
 
     pub fn heartbeat(&self) -> Result<HeartbeatSender, BusError> {
         Ok(HeartbeatSender {
-            port: self.publisher(services::HEARTBEAT)?,
+            port: self.publisher(topics::HEARTBEAT)?,
             kind: self.kind,
             last_ns: 0,
         })

@@ -9,26 +9,27 @@
 //!   Large messages are zero-filled and written in place in the loaned sample.
 //! - [`signals`]: SIGINT/SIGTERM become a stop request that every wait loop checks.
 //!
-//! Knows the message types and service names, not what any process computes. The tick
-//! protocol is spelled out in `tick.rs`; request/response is built from two pub/sub
-//! services (`request.rs`) so that a recorder sees both directions.
+//! Ports are opened with the typed topics of `aisle_messages::topics` (name, type and
+//! QoS in one table). Knows the message types, not what any process computes nor who
+//! publishes what (the graph and the tick protocol are `aisle-node`'s). Request/response
+//! is built from two pub/sub services (`request.rs`) so that a recorder sees both
+//! directions.
 
+mod args;
 mod bus;
 pub mod clock;
 mod error;
 mod instance;
 mod node;
 mod port;
-mod qos;
 mod request;
 pub mod signals;
-mod tick;
 
+pub use aisle_messages::{Qos, Topic};
+pub use args::{NodeArgs, StageTimer};
 pub use bus::{Bus, HeartbeatSender};
 pub use error::BusError;
 pub use instance::{Instance, MAX_ROOT_AND_PREFIX};
 pub use node::NodeError;
 pub use port::{Publisher, Received, Stamp, Subscriber, WaitOutcome, message_bytes};
-pub use qos::Qos;
 pub use request::{Client, Correlated};
-pub use tick::{NodeArgs, StageTimer, TickFollower};

@@ -1,7 +1,7 @@
 //! Typed publish/subscribe ports, each paired with an event service of the same name.
 
-use crate::{BusError, Qos, clock, signals};
-use aisle_messages::{Message, NodeKind};
+use crate::{BusError, clock, signals};
+use aisle_messages::{Message, NodeKind, Qos, Topic};
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher as IoxPublisher;
@@ -43,10 +43,10 @@ pub struct Publisher<M: Message> {
 impl<M: Message> Publisher<M> {
     pub(crate) fn new(
         node: &Node<ipc::Service>,
-        service: &'static str,
+        topic: Topic<M>,
         source: NodeKind,
     ) -> Result<Self, BusError> {
-        let qos = Qos::for_service(service);
+        let (service, qos) = (topic.name, topic.qos);
         let svc = pubsub_service::<M>(node, service, &qos)?;
         let port = svc
             .publisher_builder()
@@ -177,8 +177,8 @@ pub struct Subscriber<M: Message> {
 }
 
 impl<M: Message> Subscriber<M> {
-    pub(crate) fn new(node: &Node<ipc::Service>, service: &'static str) -> Result<Self, BusError> {
-        let qos = Qos::for_service(service);
+    pub(crate) fn new(node: &Node<ipc::Service>, topic: Topic<M>) -> Result<Self, BusError> {
+        let (service, qos) = (topic.name, topic.qos);
         let svc = pubsub_service::<M>(node, service, &qos)?;
         let mut builder = svc.subscriber_builder().buffer_size(qos.buffer);
         if qos.history > 0 {

@@ -2,7 +2,7 @@
 //! publishing, waiting with a deadline, and cleanup of the instance.
 
 use aisle_bus::{Bus, BusError, Instance, Stamp, WaitOutcome};
-use aisle_messages::{NodeKind, PointCloud, TickMode, services};
+use aisle_messages::{NodeKind, TickMode, topics};
 use std::path::Path;
 use std::time::Duration;
 
@@ -34,8 +34,8 @@ fn a_large_message_arrives_intact_and_the_instance_leaves_nothing() {
         let (sup, announcement) = Bus::create_instance(&inst, 7, TickMode::Lockstep).unwrap();
         let info = join_while_serving(&inst, &announcement, NodeKind::Lidar).unwrap();
         assert_eq!(info.seed, 7);
-        let sub = sup.subscriber::<PointCloud>(services::POINT_CLOUD).unwrap();
-        let mut publ = sup.publisher::<PointCloud>(services::POINT_CLOUD).unwrap();
+        let sub = sup.subscriber(topics::POINT_CLOUD).unwrap();
+        let mut publ = sup.publisher(topics::POINT_CLOUD).unwrap();
         publ.publish(
             Stamp {
                 stamp_ns: 100,
@@ -74,7 +74,7 @@ fn a_wait_without_data_times_out() {
     let inst = instance();
     {
         let (sup, _info) = Bus::create_instance(&inst, 1, TickMode::Lockstep).unwrap();
-        let sub = sup.subscriber::<PointCloud>(services::POINT_CLOUD).unwrap();
+        let sub = sup.subscriber(topics::POINT_CLOUD).unwrap();
         let (outcome, sample) = sub
             .wait_for(Duration::from_millis(120), |_| true, || {})
             .unwrap();
@@ -118,8 +118,8 @@ fn two_instances_do_not_see_each_other() {
     {
         let (sa, _) = Bus::create_instance(&a, 1, TickMode::Lockstep).unwrap();
         let (sb, _) = Bus::create_instance(&b, 1, TickMode::Lockstep).unwrap();
-        let sub_b = sb.subscriber::<PointCloud>(services::POINT_CLOUD).unwrap();
-        let mut pub_a = sa.publisher::<PointCloud>(services::POINT_CLOUD).unwrap();
+        let sub_b = sb.subscriber(topics::POINT_CLOUD).unwrap();
+        let mut pub_a = sa.publisher(topics::POINT_CLOUD).unwrap();
         pub_a.publish(Stamp::default(), |_| {}).unwrap();
         let (outcome, _) = sub_b
             .wait_for(Duration::from_millis(100), |_| true, || {})

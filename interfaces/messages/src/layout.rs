@@ -70,3 +70,21 @@ pub fn schema_hash() -> u64 {
 pub fn schema_hash_hex() -> String {
     format!("{:016x}", schema_hash())
 }
+
+/// A zero-filled message on the heap (a valid value, see [`ZeroedValid`]): for tests and
+/// in-memory stand-ins of the bus; large messages never go on the stack.
+pub fn zeroed_box<M: ZeroedValid>() -> Box<M> {
+    let layout = std::alloc::Layout::new::<M>();
+    if layout.size() == 0 {
+        // SAFETY: a zero-sized ZeroedValid type has exactly one value.
+        return unsafe { Box::from_raw(std::ptr::NonNull::<M>::dangling().as_ptr()) };
+    }
+    // SAFETY: the layout is M's and non-zero; all-zero bytes are a valid M.
+    unsafe {
+        let p = std::alloc::alloc_zeroed(layout) as *mut M;
+        if p.is_null() {
+            std::alloc::handle_alloc_error(layout);
+        }
+        Box::from_raw(p)
+    }
+}

@@ -8,14 +8,17 @@
 //! ([`ZeroedValid`]), so large messages are zero-filled and then written in place in the
 //! loaned sample, never built on the stack.
 //!
-//! This crate knows the shapes of messages and the names of services; it does not know
+//! This crate knows the shapes of messages and the topic table (name, type, QoS); it does not know
 //! how they are sent (see `aisle-bus`) or what the algorithms do with them.
 
 mod catalog;
 mod common;
 mod layout;
-pub mod services;
+pub mod topics;
 
 pub use catalog::*;
 pub use common::*;
-pub use layout::{FieldLayout, Message, ZeroedValid, all_layouts, schema_hash, schema_hash_hex};
+pub use layout::{
+    FieldLayout, Message, ZeroedValid, all_layouts, schema_hash, schema_hash_hex, zeroed_box,
+};
+pub use topics::{Qos, Topic, TopicInfo, TopicVisitor};

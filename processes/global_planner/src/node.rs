@@ -6,15 +6,17 @@
 //! twice: by its expansion budget (deterministic) and by its wall-clock timeout, checked
 //! here through the planner's stop callback, so no request hangs.
 //!
-//! Adapter only: the search is [`crate::Planner`].
+//! Adapter only: the search is [`crate::Planner`]; the loop around it is the node
+//! runtime's (`aisle_node::run`).
 
 use crate::{PlanErrorKind, PlanRequest, Planner, PlannerConfig};
-use aisle_bus::{Bus, NodeArgs, NodeError, Stamp, WaitOutcome, clock};
+use aisle_bus::{NodeArgs, NodeError, Stamp, clock};
 use aisle_geometry::{Footprint, GridView, OCCUPIED_DETECTED, Pose2};
 use aisle_messages::{
-    MAX_PATH_POSES, NodeKind, NodeState, OccupancyGrid, PlanRequest as PlanRequestMsg,
-    PlanResponse, PlanStatus, services,
+    MAX_PATH_POSES, NodeKind, OccupancyGrid, PlanRequest as PlanRequestMsg, PlanResponse,
+    PlanStatus, StageStatus, Topic, topics,
 };
+use aisle_node::{Cycle, Io, RunContext, Stage};
 use std::time::Duration;
 
 /// Budget when a request leaves `max_expansions` at 0.
@@ -80,79 +82,41 @@ fn status_of(kind: &PlanErrorKind) -> PlanStatus {
     }
 }
 
-pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
-    let path = args.config_dir.join("planner.toml");
-    let (cfg, text) = aisle_config::load_toml::<PlannerConfig>(&path)
-        .map_err(|e| NodeError::setup("global_planner", e))?;
-    cfg.validate().map_err(|e| {
-        NodeError::setup(
-            "global_planner",
-            aisle_config::ConfigError::invalid(&path, &text, e.key, e.reason.clone()),
-        )
-    })?;
-    let mut planner = Planner::new(cfg).map_err(|e| NodeError::setup("global_planner", e))?;
+/// The planner as a stage: one cycle per request, in arrival order, on the newest map.
+pub struct PlannerStage {
+    planner: Planner,
+    map: MapCopy,
+}
 
-    let (bus, _) = Bus::join(
-        &args.instance,
-        NodeKind::GlobalPlanner,
-        NodeArgs::JOIN_TIMEOUT,
-    )?;
-    let maps = bus.subscriber::<OccupancyGrid>(services::GLOBAL_MAP)?;
-    let requests = bus.subscriber::<PlanRequestMsg>(services::PLAN_REQUEST)?;
-    let mut responses = bus.publisher::<PlanResponse>(services::PLAN_RESPONSE)?;
-    let mut heartbeat = bus.heartbeat()?;
-    heartbeat.send(NodeState::Starting, "waiting for the global map")?;
-
-    let mut map = MapCopy {
-        origin: (0.0, 0.0),
-        resolution: 1.0,
-        width: 0,
-        height: 0,
-        cells: Vec::new(),
-        static_cells: Vec::new(),
-    };
-    // Ready once there is a map to plan on.
-    loop {
-        let hb = &mut heartbeat;
-        let (outcome, sample) = maps.wait_for(
-            Duration::from_millis(200),
-            |_| true,
-            || {
-                let _ = hb.tick(NodeState::Starting);
+impl PlannerStage {
+    /// Loads `planner.toml` from `config_dir`.
+    pub fn new(config_dir: &std::path::Path) -> Result<PlannerStage, NodeError> {
+        let path = config_dir.join("planner.toml");
+        let (cfg, text) = aisle_config::load_toml::<PlannerConfig>(&path)
+            .map_err(|e| NodeError::setup("global_planner", e))?;
+        cfg.validate().map_err(|e| {
+            NodeError::setup(
+                "global_planner",
+                aisle_config::ConfigError::invalid(&path, &text, e.key, e.reason.clone()),
+            )
+        })?;
+        let planner = Planner::new(cfg).map_err(|e| NodeError::setup("global_planner", e))?;
+        Ok(PlannerStage {
+            planner,
+            map: MapCopy {
+                origin: (0.0, 0.0),
+                resolution: 1.0,
+                width: 0,
+                height: 0,
+                cells: Vec::new(),
+                static_cells: Vec::new(),
             },
-        )?;
-        if let (WaitOutcome::Matched, Some(m)) = (outcome, sample)
-            && map.update(&m)
-        {
-            break;
-        }
+        })
     }
-    heartbeat.send(NodeState::Ready, "")?;
 
-    loop {
-        let hb = &mut heartbeat;
-        let (outcome, sample) = requests.wait_for(
-            Duration::from_millis(500),
-            |_| true,
-            || {
-                let _ = hb.tick(NodeState::Running);
-            },
-        )?;
-        let (WaitOutcome::Matched, Some(req)) = (outcome, sample) else {
-            continue;
-        };
-        let req = *req;
-        if let Some(m) = maps.latest()? {
-            map.update(&m);
-        }
-        let started = clock::monotonic_ns();
-        let timeout_ms = if req.timeout_ms == 0 {
-            DEFAULT_TIMEOUT_MS
-        } else {
-            req.timeout_ms
-        };
-        let deadline = started + timeout_ms as u64 * 1_000_000;
-        let request = PlanRequest {
+    /// The request as the library takes it, with the defaults for unset bounds.
+    fn request_of(req: &PlanRequestMsg) -> PlanRequest {
+        PlanRequest {
             start: Pose2::from(req.start),
             goal: Pose2::from(req.goal),
             footprint: Footprint::new(req.footprint_length, req.footprint_width),
@@ -162,35 +126,77 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
             } else {
                 req.max_expansions
             },
-        };
-        let result =
-            planner.plan_with_stop(&request, &map.view(req.use_detections != 0), &mut || {
-                clock::monotonic_ns() > deadline
-            });
-        let solve_ns = clock::monotonic_ns() - started;
-        responses.publish(Stamp::of(&req.header), |m| {
-            m.request_id = req.request_id;
-            m.solve_ns = solve_ns;
-            match &result {
-                Ok(plan) if plan.path.len() <= MAX_PATH_POSES => {
-                    m.status = PlanStatus::Ok as u32;
-                    m.expansions = plan.stats.expansions;
-                    m.path_length = plan.stats.path_length;
-                    m.len = plan.path.len() as u32;
-                    for (dst, p) in m.poses.iter_mut().zip(&plan.path) {
-                        *dst = (*p).into();
-                    }
-                }
-                Ok(plan) => {
-                    // Longer than a message holds: report it rather than truncate it.
-                    m.status = PlanStatus::InvalidRequest as u32;
-                    m.expansions = plan.stats.expansions;
-                }
-                Err(e) => {
-                    m.status = status_of(&e.kind) as u32;
-                    m.expansions = e.stats.expansions;
-                }
+        }
+    }
+}
+
+fn fill_response(m: &mut PlanResponse, req: &PlanRequestMsg, result: &PlanResult, solve_ns: u64) {
+    m.request_id = req.request_id;
+    m.solve_ns = solve_ns;
+    match result {
+        Ok(plan) if plan.path.len() <= MAX_PATH_POSES => {
+            m.status = PlanStatus::Ok as u32;
+            m.expansions = plan.stats.expansions;
+            m.path_length = plan.stats.path_length;
+            m.len = plan.path.len() as u32;
+            for (dst, p) in m.poses.iter_mut().zip(&plan.path) {
+                *dst = (*p).into();
             }
+        }
+        Ok(plan) => {
+            // Longer than a message holds: report it rather than truncate it.
+            m.status = PlanStatus::InvalidRequest as u32;
+            m.expansions = plan.stats.expansions;
+        }
+        Err(e) => {
+            m.status = status_of(&e.kind) as u32;
+            m.expansions = e.stats.expansions;
+        }
+    }
+}
+
+type PlanResult = Result<crate::Plan, crate::PlanError>;
+
+impl Stage for PlannerStage {
+    const KIND: NodeKind = NodeKind::GlobalPlanner;
+    type Trigger = PlanRequestMsg;
+    const TRIGGER: Topic<PlanRequestMsg> = topics::PLAN_REQUEST;
+    const NEWEST_ONLY: bool = false;
+    const ANNOUNCES_START: bool = true;
+
+    /// Ready once there is a map to plan on.
+    fn start(&mut self, io: &impl Io, _ctx: &RunContext) -> Result<(), NodeError> {
+        loop {
+            if let Some(m) =
+                io.wait_for(topics::GLOBAL_MAP, Duration::from_millis(200), |_| true)?
+                && self.map.update(&m)
+            {
+                return Ok(());
+            }
+        }
+    }
+
+    fn process(&mut self, req: &PlanRequestMsg, io: &impl Io) -> Result<Cycle, NodeError> {
+        let req = *req;
+        if let Some(m) = io.latest(topics::GLOBAL_MAP)? {
+            self.map.update(&m);
+        }
+        let started = clock::monotonic_ns();
+        let timeout_ms = if req.timeout_ms == 0 {
+            DEFAULT_TIMEOUT_MS
+        } else {
+            req.timeout_ms
+        };
+        let deadline = started + timeout_ms as u64 * 1_000_000;
+        let request = Self::request_of(&req);
+        let result = self.planner.plan_with_stop(
+            &request,
+            &self.map.view(req.use_detections != 0),
+            &mut || clock::monotonic_ns() > deadline,
+        );
+        let solve_ns = clock::monotonic_ns() - started;
+        io.publish(topics::PLAN_RESPONSE, Stamp::of(&req.header), |m| {
+            fill_response(m, &req, &result, solve_ns)
         })?;
         match &result {
             Ok(plan) => tracing::info!(
@@ -203,5 +209,14 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
             ),
             Err(e) => tracing::warn!("global_planner: request {}: {e}", req.request_id),
         }
+        Ok(Cycle {
+            status: StageStatus::Done,
+            compute_ns: Some(solve_ns),
+        })
     }
+}
+
+pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
+    let mut stage = PlannerStage::new(&args.config_dir)?;
+    aisle_node::run(&mut stage, args)
 }

@@ -6,19 +6,18 @@
 //! being approached (map frame) and the carried rack (robot frame). The robot's own
 //! footprint is always ignored.
 //!
-//! Adapter only: the mapping is [`crate::Mapper`].
+//! Adapter only: the mapping is [`crate::Mapper`]; the loop around it is the node
+//! runtime's (`aisle_node::run`).
 
 use crate::{
     BeamGeometry, IgnoreZone, MapConfig, Mapper, OrganizedCloud, Scan, SensorPose, load_static_map,
 };
-use aisle_bus::{
-    Bus, NodeArgs, NodeError, Publisher, StageTimer, Stamp, TickFollower, WaitOutcome,
-};
+use aisle_bus::{NodeArgs, NodeError, StageTimer, Stamp};
 use aisle_geometry::{Footprint, GridView, Pose2};
 use aisle_messages::{
-    GridKind, MapperControl, NodeKind, NodeState, OccupancyGrid, PointCloud, RectMsg, StageStatus,
-    services,
+    GridKind, NodeKind, OccupancyGrid, PointCloud, RectMsg, StageStatus, Topic, topics,
 };
+use aisle_node::{Cycle, Io, RunContext, Stage};
 use std::time::Duration;
 
 /// The lidar's beam pattern, from `lidar.toml` (the mapper clears along rays without a
@@ -42,34 +41,6 @@ fn beams(config_dir: &std::path::Path) -> Result<BeamGeometry, NodeError> {
     })
 }
 
-/// A restarted mapper takes its detections back from the last global map (kept and
-/// published again by the supervisor).
-fn resume(bus: &Bus, mapper: &mut Mapper) -> Result<Option<u64>, NodeError> {
-    let wait = Duration::from_secs(1);
-    let globals = bus.subscriber::<OccupancyGrid>(services::GLOBAL_MAP)?;
-    if let (WaitOutcome::Matched, Some(g)) = globals.wait_for(wait, |_| true, || {})? {
-        let n = (g.width as usize)
-            .saturating_mul(g.height as usize)
-            .min(g.cells.len());
-        let view = GridView::new(
-            g.origin_x,
-            g.origin_y,
-            g.resolution,
-            g.width as usize,
-            g.height as usize,
-            &g.cells[..n],
-        )
-        .map_err(|e| NodeError::Protocol(format!("mapper: published global map: {e}")))?;
-        mapper
-            .restore_detections(&view, g.version)
-            .map_err(|e| NodeError::Protocol(format!("mapper: resuming: {e}")))?;
-    }
-    tracing::warn!("mapper: resumed with map version {}", mapper.version());
-    // Scans are integrated again after a restart: integrating a scan twice changes
-    // nothing, so the newest one is simply redone.
-    Ok(None)
-}
-
 fn zone(r: &RectMsg) -> Option<IgnoreZone> {
     (r.valid != 0 && r.length > 0.0 && r.width > 0.0).then(|| IgnoreZone {
         pose: r.pose.into(),
@@ -78,13 +49,14 @@ fn zone(r: &RectMsg) -> Option<IgnoreZone> {
 }
 
 fn publish_grid(
-    port: &mut Publisher<OccupancyGrid>,
+    io: &impl Io,
+    topic: Topic<OccupancyGrid>,
     stamp: Stamp,
     kind: GridKind,
     version: u64,
     map: &GridView<'_>,
 ) -> Result<(), NodeError> {
-    port.publish(stamp, |m| {
+    io.publish(topic, stamp, |m| {
         m.kind = kind as u32;
         m.width = map.width as u32;
         m.height = map.height as u32;
@@ -93,111 +65,82 @@ fn publish_grid(
         m.resolution = map.resolution;
         m.version = version;
         m.cells[..map.cells.len()].copy_from_slice(map.cells);
-    })?;
-    Ok(())
+    })
 }
 
-pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
-    let mapper_toml = args.config_dir.join("mapper.toml");
-    let cfg = MapConfig::load(&mapper_toml).map_err(|e| NodeError::setup("mapper", e))?;
-    let static_map =
-        load_static_map(&cfg, &args.config_dir.join("warehouse.toml")).map_err(|e| {
-            NodeError::setup(format!("mapper: static map ({})", mapper_toml.display()), e)
-        })?;
-    if static_map.cells.len() > aisle_messages::MAX_GRID_CELLS
-        || static_map.width > aisle_messages::MAX_GRID_SIDE
-        || static_map.height > aisle_messages::MAX_GRID_SIDE
-    {
-        return Err(NodeError::setup(
-            format!("mapper: {}", mapper_toml.display()),
-            format!(
-                "a {} x {} map exceeds the OccupancyGrid capacity of {} cells per side",
-                static_map.width,
-                static_map.height,
-                aisle_messages::MAX_GRID_SIDE
-            ),
-        ));
-    }
-    let robot = aisle_simulator::RobotConfig::load(&args.config_dir.join("robot.toml"))
-        .map_err(|e| NodeError::setup("mapper", e))?;
-    let robot_footprint = robot.footprint.alone.footprint();
-    let beams = beams(&args.config_dir)?;
-    let mut mapper =
-        Mapper::new(static_map, &cfg, beams).map_err(|e| NodeError::setup("mapper", e))?;
-    let side = mapper.local_side();
+/// The mapper as a stage: one cycle per point cloud, in arrival order.
+pub struct MapperStage {
+    mapper: Mapper,
+    robot_footprint: Footprint,
+    side: usize,
+    /// The newest scan integrated; a cloud of that tick or earlier is only acknowledged.
+    last_tick: Option<u64>,
+    ignore: Option<IgnoreZone>,
+    carried: Option<IgnoreZone>,
+    published_version: u64,
+}
 
-    let (bus, _) = Bus::join(&args.instance, NodeKind::Mapper, NodeArgs::JOIN_TIMEOUT)?;
-    let mut global = bus.publisher::<OccupancyGrid>(services::GLOBAL_MAP)?;
-    let mut local = bus.publisher::<OccupancyGrid>(services::LOCAL_MAP)?;
-    let clouds = bus.subscriber::<PointCloud>(services::POINT_CLOUD)?;
-    let control = bus.subscriber::<MapperControl>(services::MAPPER_CONTROL)?;
-    let mut ticks = TickFollower::new(&bus)?;
-    // The newest scan integrated; a cloud of that tick or earlier is only acknowledged.
-    let mut last_tick: Option<u64> = None;
-    if args.restarted {
-        last_tick = resume(&bus, &mut mapper)?;
-    } else {
-        publish_grid(
-            &mut global,
-            Stamp::default(),
-            GridKind::Global,
-            mapper.version(),
-            &mapper.global_map(),
-        )?;
+impl MapperStage {
+    /// Loads `mapper.toml`, the static map, the robot and the beam pattern.
+    pub fn new(config_dir: &std::path::Path) -> Result<MapperStage, NodeError> {
+        let mapper_toml = config_dir.join("mapper.toml");
+        let cfg = MapConfig::load(&mapper_toml).map_err(|e| NodeError::setup("mapper", e))?;
+        let static_map =
+            load_static_map(&cfg, &config_dir.join("warehouse.toml")).map_err(|e| {
+                NodeError::setup(format!("mapper: static map ({})", mapper_toml.display()), e)
+            })?;
+        if static_map.cells.len() > aisle_messages::MAX_GRID_CELLS
+            || static_map.width > aisle_messages::MAX_GRID_SIDE
+            || static_map.height > aisle_messages::MAX_GRID_SIDE
+        {
+            return Err(NodeError::setup(
+                format!("mapper: {}", mapper_toml.display()),
+                format!(
+                    "a {} x {} map exceeds the OccupancyGrid capacity of {} cells per side",
+                    static_map.width,
+                    static_map.height,
+                    aisle_messages::MAX_GRID_SIDE
+                ),
+            ));
+        }
+        let robot = aisle_simulator::RobotConfig::load(&config_dir.join("robot.toml"))
+            .map_err(|e| NodeError::setup("mapper", e))?;
+        let robot_footprint = robot.footprint.alone.footprint();
+        let beams = beams(config_dir)?;
+        let mapper =
+            Mapper::new(static_map, &cfg, beams).map_err(|e| NodeError::setup("mapper", e))?;
+        Ok(MapperStage {
+            side: mapper.local_side(),
+            published_version: mapper.version(),
+            mapper,
+            robot_footprint,
+            last_tick: None,
+            ignore: None,
+            carried: None,
+        })
     }
-    ticks.ready()?;
 
-    let mut ignore: Option<IgnoreZone> = None;
-    let mut carried: Option<IgnoreZone> = None;
-    let mut published_version = mapper.version();
-    loop {
-        let hb = ticks.heartbeat();
-        let (global_ref, local_ref) = (&global, &local);
-        let (outcome, sample) = clouds.wait_for(
-            Duration::from_millis(500),
-            |_| true,
-            || {
-                let _ = hb.tick(NodeState::Running);
-                // Late subscribers (a restarted planner or controller) get the history.
-                let _ = global_ref.update_connections();
-                let _ = local_ref.update_connections();
-            },
-        )?;
-        let (WaitOutcome::Matched, Some(cloud)) = (outcome, sample) else {
-            continue;
-        };
-        if last_tick.is_some_and(|t| cloud.header.tick <= t) {
-            let header = cloud.header;
-            drop(cloud);
-            ticks.done_for(&header, StageStatus::Done, 0)?;
-            continue;
-        }
-        last_tick = Some(cloud.header.tick);
-        let timer = StageTimer::start();
-        if let Some(c) = control.latest()? {
-            ignore = zone(&c.ignore);
-            carried = zone(&c.carried);
-        }
-        let robot_pose: Pose2 = cloud.robot_pose.into();
+    /// Integrates one cloud; `Failed` when the cloud or the scan is refused.
+    fn integrate(&mut self, cloud: &PointCloud) -> StageStatus {
         let sp = cloud.sensor_pose;
         let sensor = SensorPose::from_rpy(sp.position, sp.rpy[0], sp.rpy[1], sp.rpy[2]);
         let (rows, cols) = (cloud.rows as usize, cloud.cols as usize);
         let n = rows.saturating_mul(cols).min(cloud.points.len());
-        let ignore_list: &[IgnoreZone] = match &ignore {
+        let ignore_list: &[IgnoreZone] = match &self.ignore {
             Some(z) => std::slice::from_ref(z),
             None => &[],
         };
-        let status = match OrganizedCloud::new(rows, cols, &cloud.points[..n]) {
+        match OrganizedCloud::new(rows, cols, &cloud.points[..n]) {
             Ok(points) => {
                 let scan = Scan {
                     cloud: points,
                     sensor,
-                    robot: robot_pose,
-                    robot_footprint,
-                    carried,
+                    robot: cloud.robot_pose.into(),
+                    robot_footprint: self.robot_footprint,
+                    carried: self.carried,
                     ignore: ignore_list,
                 };
-                match mapper.integrate(&scan) {
+                match self.mapper.integrate(&scan) {
                     Ok(_) => StageStatus::Done,
                     Err(e) => {
                         tracing::warn!("mapper: scan of tick {} refused: {e}", cloud.header.tick);
@@ -209,24 +152,30 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
                 tracing::warn!("mapper: cloud of tick {} refused: {e}", cloud.header.tick);
                 StageStatus::Failed
             }
-        };
-        let stamp = Stamp::of(&cloud.header);
-        if mapper.version() != published_version {
-            published_version = mapper.version();
+        }
+    }
+
+    /// The global map when it changed, then the local window around the robot.
+    fn publish_maps(&mut self, io: &impl Io, stamp: Stamp, robot: Pose2) -> Result<(), NodeError> {
+        if self.mapper.version() != self.published_version {
+            self.published_version = self.mapper.version();
             publish_grid(
-                &mut global,
+                io,
+                topics::GLOBAL_MAP,
                 stamp,
                 GridKind::Global,
-                published_version,
-                &mapper.global_map(),
+                self.published_version,
+                &self.mapper.global_map(),
             )?;
         }
         let mut failure = None;
-        let version = mapper.version();
-        local.publish(stamp, |m| {
+        let version = self.mapper.version();
+        let side = self.side;
+        let mapper = &self.mapper;
+        io.publish(topics::LOCAL_MAP, stamp, |m| {
             m.kind = GridKind::Local as u32;
             m.version = version;
-            match mapper.local_map_into((robot_pose.x, robot_pose.y), &mut m.cells[..side * side]) {
+            match mapper.local_map_into((robot.x, robot.y), &mut m.cells[..side * side]) {
                 Ok(info) => {
                     m.width = info.width as u32;
                     m.height = info.height as u32;
@@ -237,11 +186,153 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
                 Err(e) => failure = Some(e),
             }
         })?;
-        if let Some(e) = failure {
-            return Err(NodeError::Protocol(format!("mapper: local map: {e}")));
+        match failure {
+            Some(e) => Err(NodeError::Protocol(format!("mapper: local map: {e}"))),
+            None => Ok(()),
         }
-        let header = cloud.header;
-        drop(cloud);
-        ticks.done_for(&header, status, timer.elapsed_ns())?;
+    }
+}
+
+impl Stage for MapperStage {
+    const KIND: NodeKind = NodeKind::Mapper;
+    type Trigger = PointCloud;
+    const TRIGGER: Topic<PointCloud> = topics::POINT_CLOUD;
+    const NEWEST_ONLY: bool = false;
+
+    fn start(&mut self, io: &impl Io, ctx: &RunContext) -> Result<(), NodeError> {
+        if ctx.restarted {
+            return Ok(());
+        }
+        publish_grid(
+            io,
+            topics::GLOBAL_MAP,
+            Stamp::default(),
+            GridKind::Global,
+            self.mapper.version(),
+            &self.mapper.global_map(),
+        )
+    }
+
+    /// A restarted mapper takes its detections back from the last global map (kept and
+    /// published again by the supervisor). Scans are integrated again after a restart:
+    /// integrating a scan twice changes nothing, so the newest one is simply redone.
+    fn restore(&mut self, io: &impl Io, _ctx: &RunContext) -> Result<(), NodeError> {
+        if let Some(g) = io.retained(topics::GLOBAL_MAP, Duration::from_secs(1))? {
+            let n = (g.width as usize)
+                .saturating_mul(g.height as usize)
+                .min(g.cells.len());
+            let view = GridView::new(
+                g.origin_x,
+                g.origin_y,
+                g.resolution,
+                g.width as usize,
+                g.height as usize,
+                &g.cells[..n],
+            )
+            .map_err(|e| NodeError::Protocol(format!("mapper: published global map: {e}")))?;
+            self.mapper
+                .restore_detections(&view, g.version)
+                .map_err(|e| NodeError::Protocol(format!("mapper: resuming: {e}")))?;
+        }
+        tracing::warn!("mapper: resumed with map version {}", self.mapper.version());
+        self.published_version = self.mapper.version();
+        Ok(())
+    }
+
+    fn process(&mut self, cloud: &PointCloud, io: &impl Io) -> Result<Cycle, NodeError> {
+        if self.last_tick.is_some_and(|t| cloud.header.tick <= t) {
+            return Ok(Cycle::repeat());
+        }
+        self.last_tick = Some(cloud.header.tick);
+        let timer = StageTimer::start();
+        if let Some(c) = io.latest(topics::MAPPER_CONTROL)? {
+            self.ignore = zone(&c.ignore);
+            self.carried = zone(&c.carried);
+        }
+        let status = self.integrate(cloud);
+        self.publish_maps(io, Stamp::of(&cloud.header), cloud.robot_pose.into())?;
+        Ok(Cycle {
+            status,
+            compute_ns: Some(timer.elapsed_ns()),
+        })
+    }
+}
+
+pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
+    let mut stage = MapperStage::new(&args.config_dir)?;
+    aisle_node::run(&mut stage, args)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use aisle_node::testing::MemIo;
+
+    fn ctx() -> RunContext {
+        RunContext {
+            mode: aisle_messages::TickMode::Lockstep,
+            seed: 1,
+            restarted: false,
+        }
+    }
+
+    fn cloud(tick: u64) -> Box<PointCloud> {
+        let mut c = aisle_messages::zeroed_box::<PointCloud>();
+        c.header.tick = tick;
+        c.rows = 2;
+        c.cols = 3;
+        c.points[..6].fill([f32::NAN; 3]);
+        c
+    }
+
+    #[test]
+    fn each_cloud_gives_a_local_map_and_a_repeat_only_an_acknowledgement() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config");
+        let mut stage = MapperStage::new(&dir).unwrap();
+        let io = MemIo::new();
+        stage.start(&io, &ctx()).unwrap();
+        assert_eq!(
+            io.published_len(topics::GLOBAL_MAP),
+            1,
+            "the static map at start"
+        );
+        // A cloud that does not match the configured beam pattern is refused, the maps
+        // still go out.
+        let c = stage.process(&cloud(4), &io).unwrap();
+        assert_eq!(c.status, StageStatus::Failed);
+        assert_eq!(io.published_len(topics::LOCAL_MAP), 1);
+        let (kind, tick, side) = io
+            .published(topics::LOCAL_MAP, 0, |m| (m.kind, m.header.tick, m.width))
+            .unwrap();
+        assert_eq!(
+            (kind, tick, side as usize),
+            (GridKind::Local as u32, 4, stage.side)
+        );
+        assert_eq!(stage.process(&cloud(4), &io).unwrap(), Cycle::repeat());
+        assert_eq!(io.published_len(topics::LOCAL_MAP), 1);
+    }
+
+    #[test]
+    fn a_restarted_mapper_takes_its_detections_back() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config");
+        let mut stage = MapperStage::new(&dir).unwrap();
+        let io = MemIo::new();
+        let fresh = MemIo::new();
+        let mut first = MapperStage::new(&dir).unwrap();
+        first.start(&fresh, &ctx()).unwrap();
+        let (w, h) = fresh
+            .published(topics::GLOBAL_MAP, 0, |m| (m.width, m.height))
+            .unwrap();
+        io.retain(topics::GLOBAL_MAP, |m| {
+            fresh.published(topics::GLOBAL_MAP, 0, |g| {
+                (m.width, m.height, m.resolution) = (g.width, g.height, g.resolution);
+                (m.origin_x, m.origin_y) = (g.origin_x, g.origin_y);
+                m.cells.copy_from_slice(&g.cells);
+            });
+            m.version = 9;
+        });
+        stage.restore(&io, &ctx()).unwrap();
+        assert_eq!(stage.mapper.version(), 9);
+        assert!(w > 0 && h > 0);
     }
 }

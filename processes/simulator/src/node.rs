@@ -1,9 +1,10 @@
 //! The simulator process: owns simulated time and drives the tick protocol.
 //!
-//! Per tick k: publish `SimState` (the whole world at the start of k, history 1), then
-//! `RobotState` and `WorldTruth` for time t_k, then `Tick{k}`; in lockstep wait for
-//! every stage that acts on k (lidar, mapper, supervisor, and the controller on its
-//! ticks); apply the supervisor's new `SimCommand`s and the newest controller
+//! The simulator is the group's clock, so it is not a [`aisle_node::Stage`] (it does not
+//! wait for a trigger: it makes them). Per tick k: publish `SimState` (the whole world
+//! at the start of k, history 1), then `RobotState` and `WorldTruth` for time t_k, then
+//! `Tick{k}`; in lockstep wait for every node `config/graph.toml` says acknowledges k
+//! (`aisle_node::tick`); apply the supervisor's new `SimCommand`s and the newest controller
 //! `Trajectory`; step the world by dt. In realtime the wall clock releases the next tick
 //! instead and nobody is waited for.
 //!
@@ -25,8 +26,10 @@ use aisle_config::scene::Scene;
 use aisle_geometry::Pose2;
 use aisle_messages::{
     MAX_BODIES, NodeKind, NodeState, RobotState, STAGE_CONTROLLER, SimCommand, SimCommandKind,
-    SimState, StageStatus, Tick, TickDone, TickMode, Trajectory, WorldTruth, services, write_name,
+    SimState, StageStatus, Tick, TickDone, TickMode, Trajectory, WorldTruth, topics, write_name,
 };
+use aisle_node::Graph;
+use aisle_node::tick::Awaited;
 use std::time::Duration;
 
 /// How long a lockstep tick may wait for its stages before the simulator gives up.
@@ -81,24 +84,26 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
         ));
     }
 
+    let graph = Graph::load_dir(&args.config_dir).map_err(|e| NodeError::setup("simulator", e))?;
+    let mut awaited = Awaited::new();
     let (bus, info) = Bus::join(&args.instance, NodeKind::Simulator, NodeArgs::JOIN_TIMEOUT)?;
     let mode = TickMode::from_u32(info.mode).unwrap_or(TickMode::Lockstep);
     let mut ports = Ports {
-        state: bus.publisher(services::SIM_STATE)?,
-        robot: bus.publisher(services::ROBOT_STATE)?,
-        truth: bus.publisher(services::WORLD_TRUTH)?,
-        tick: bus.publisher(services::TICK)?,
-        done_out: bus.publisher(services::TICK_DONE)?,
-        done_in: bus.subscriber(services::TICK_DONE)?,
-        commands: bus.subscriber(services::SIM_COMMAND)?,
-        trajectory: bus.subscriber(services::TRAJECTORY)?,
+        state: bus.publisher(topics::SIM_STATE)?,
+        robot: bus.publisher(topics::ROBOT_STATE)?,
+        truth: bus.publisher(topics::WORLD_TRUTH)?,
+        tick: bus.publisher(topics::TICK)?,
+        done_out: bus.publisher(topics::TICK_DONE)?,
+        done_in: bus.subscriber(topics::TICK_DONE)?,
+        commands: bus.subscriber(topics::SIM_COMMAND)?,
+        trajectory: bus.subscriber(topics::TRAJECTORY)?,
     };
     let mut heartbeat = bus.heartbeat()?;
     let mut applied = Applied::default();
     let mut k: u64 = 0;
 
     if args.restarted {
-        let own = bus.subscriber::<SimState>(services::SIM_STATE)?;
+        let own = bus.subscriber(topics::SIM_STATE)?;
         let (outcome, sample) = own.wait_for(RESUME_TIMEOUT, |_| true, || {})?;
         let (WaitOutcome::Matched, Some(s)) = (outcome, sample) else {
             return Err(NodeError::Protocol(
@@ -169,7 +174,14 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
         heartbeat.tick(NodeState::Running)?;
 
         match mode {
-            TickMode::Lockstep => wait_stages(&ports, &mut heartbeat, k, stages, args.recorded)?,
+            TickMode::Lockstep => wait_stages(
+                &ports,
+                &mut heartbeat,
+                &graph,
+                &mut awaited,
+                (k, stages),
+                args.recorded,
+            )?,
             TickMode::Realtime => {
                 // Release the next tick on the wall clock.
                 let due = wall_start + (k + 1 - first_tick) * dt_ns;
@@ -387,43 +399,36 @@ fn publish_state(ports: &mut Ports, world: &World, stamp: Stamp) -> Result<(), N
     Ok(())
 }
 
+/// Waits until every node the graph says acknowledges tick `k` did (the recorder only
+/// when one runs).
 fn wait_stages(
     ports: &Ports,
     heartbeat: &mut HeartbeatSender,
-    k: u64,
-    stages: u32,
+    graph: &Graph,
+    awaited: &mut Awaited,
+    (k, stages): (u64, u32),
     recorded: bool,
 ) -> Result<(), NodeError> {
-    let mut pending = vec![NodeKind::Lidar, NodeKind::Mapper, NodeKind::Supervisor];
-    if recorded {
-        pending.push(NodeKind::Recorder);
-    }
-    if stages & STAGE_CONTROLLER != 0 {
-        pending.push(NodeKind::TebController);
-    }
+    awaited.expect(
+        k,
+        graph.acknowledgers(stages, |n| n != NodeKind::Recorder || recorded),
+    );
     let started = std::time::Instant::now();
-    while !pending.is_empty() {
-        let (outcome, sample) = ports.done_in.wait_for(
-            Duration::from_millis(200),
-            |d| d.header.tick == k && pending.iter().any(|p| *p as u32 == d.node),
-            || {
-                let _ = heartbeat.tick(NodeState::Running);
-                ports.refresh();
-            },
-        )?;
-        if outcome == WaitOutcome::Matched
-            && let Some(d) = sample
-        {
-            let node = d.node;
-            pending.retain(|p| *p as u32 != node);
-        } else if started.elapsed() > STAGE_TIMEOUT {
-            let names: Vec<&str> = pending.iter().map(|p| p.name()).collect();
-            return Err(NodeError::Protocol(format!(
-                "tick {k}: no acknowledgement from {} within {} s",
-                names.join(", "),
-                STAGE_TIMEOUT.as_secs()
-            )));
-        }
-    }
-    Ok(())
+    awaited.wait(
+        &ports.done_in,
+        Duration::from_millis(200),
+        |_| {},
+        |a| {
+            let _ = heartbeat.tick(NodeState::Running);
+            ports.refresh();
+            if started.elapsed() > STAGE_TIMEOUT {
+                return Err(NodeError::Protocol(format!(
+                    "tick {k}: no acknowledgement from {} within {} s",
+                    a.pending_names(),
+                    STAGE_TIMEOUT.as_secs()
+                )));
+            }
+            Ok(())
+        },
+    )
 }

@@ -98,6 +98,12 @@ pub fn check_dir(dir: &Path) -> Result<Vec<PathBuf>, String> {
     crate::restart::RestartConfig::load(&files.restart).map_err(|e| e.to_string())?;
     let mut checked: Vec<PathBuf> = files.all().iter().map(|p| p.to_path_buf()).collect();
     checked.push(model.file().to_path_buf());
+    // The graph is optional in a config directory (the shipped one stands in).
+    let graph = aisle_node::graph::path_in(dir);
+    if graph.exists() {
+        aisle_node::Graph::load(&graph).map_err(|e| e.to_string())?;
+        checked.push(graph);
+    }
     let known: Vec<PathBuf> = checked
         .iter()
         .filter_map(|p| p.file_name().map(PathBuf::from))
@@ -109,7 +115,7 @@ pub fn check_dir(dir: &Path) -> Result<Vec<PathBuf>, String> {
             && !known.iter().any(|k| Some(k.as_os_str()) == p.file_name())
         {
             return Err(format!(
-                "{}: not a file aisle reads (expected warehouse, robot, lidar, mapper, planner, teb, mission, budgets, restart .toml)",
+                "{}: not a file aisle reads (expected warehouse, robot, lidar, mapper, planner, teb, mission, budgets, restart, graph .toml)",
                 p.display()
             ));
         }

@@ -10,7 +10,8 @@
 
 use crate::launch::{LaunchSpec, ProcessGroup, current_exe, describe};
 use aisle_bus::{Bus, Instance, WaitOutcome};
-use aisle_messages::{Heartbeat, NodeKind, NodeState, TickMode, services as s};
+use aisle_messages::topics::names as s;
+use aisle_messages::{NodeKind, NodeState, TickMode, topics};
 use aisle_tools::RecordFile;
 use aisle_tools::lockstep::{LockstepOptions, LockstepPorts, LockstepSummary, replay_lockstep};
 use anyhow::{Context, anyhow, bail};
@@ -160,7 +161,7 @@ pub fn replay_into_fresh_group(
     let result = (|| -> anyhow::Result<LockstepSummary> {
         let (bus, info) = Bus::create_instance(&instance, seed, TickMode::Lockstep)
             .with_context(|| format!("creating an instance under {}", base.display()))?;
-        let heartbeats = bus.subscriber::<Heartbeat>(s::HEARTBEAT)?;
+        let heartbeats = bus.subscriber(topics::HEARTBEAT)?;
         let mut ports = LockstepPorts::open(&bus, &file, &opts)?;
         let spec = LaunchSpec {
             exe: current_exe().map_err(|e| anyhow!(e))?,

@@ -26,7 +26,7 @@ use aisle_messages::{
     MapperControl, MissionState, MissionStatus, NodeKind, NodeState, OccupancyGrid, PathPoseMsg,
     PlanRequest, PlanResponse, PlanStatus, RectMsg, RobotState, STAGE_CONTROLLER, SimCommand,
     SimCommandKind, SimState, StageStatus, Tick, TickDone, TickMode, Trajectory, WorldTruth,
-    read_name, services, write_name,
+    read_name, topics, write_name,
 };
 use anyhow::{Context, anyhow, bail};
 use std::collections::HashMap;
@@ -505,19 +505,19 @@ impl Session {
                     instance.root.display()
                 )
             })?;
-        let heartbeat = bus.subscriber(services::HEARTBEAT)?;
+        let heartbeat = bus.subscriber(topics::HEARTBEAT)?;
         let ports = Ports {
-            tick: bus.subscriber(services::TICK)?,
-            tick_done_in: bus.subscriber(services::TICK_DONE)?,
-            tick_done: bus.publisher(services::TICK_DONE)?,
-            robot: bus.subscriber(services::ROBOT_STATE)?,
-            truth: bus.subscriber(services::WORLD_TRUTH)?,
-            trajectory: bus.subscriber(services::TRAJECTORY)?,
+            tick: bus.subscriber(topics::TICK)?,
+            tick_done_in: bus.subscriber(topics::TICK_DONE)?,
+            tick_done: bus.publisher(topics::TICK_DONE)?,
+            robot: bus.subscriber(topics::ROBOT_STATE)?,
+            truth: bus.subscriber(topics::WORLD_TRUTH)?,
+            trajectory: bus.subscriber(topics::TRAJECTORY)?,
             planner: Client::new(
-                bus.publisher(services::PLAN_REQUEST)?,
-                bus.subscriber(services::PLAN_RESPONSE)?,
+                bus.publisher(topics::PLAN_REQUEST)?,
+                bus.subscriber(topics::PLAN_RESPONSE)?,
             ),
-            status: bus.publisher(services::MISSION_STATUS)?,
+            status: bus.publisher(topics::MISSION_STATUS)?,
         };
         let cfg = &loaded.mission;
         let bodies = loaded
@@ -586,20 +586,20 @@ impl Session {
         }
         let now = Instant::now();
         let keeper = Keeper {
-            sim_state: bus.subscriber(services::SIM_STATE)?,
-            global_map: bus.subscriber(services::GLOBAL_MAP)?,
-            band: bus.subscriber(services::CONTROLLER_BAND)?,
-            sim_state_out: bus.publisher(services::SIM_STATE)?,
-            global_map_out: bus.publisher(services::GLOBAL_MAP)?,
-            band_out: bus.publisher(services::CONTROLLER_BAND)?,
+            sim_state: bus.subscriber(topics::SIM_STATE)?,
+            global_map: bus.subscriber(topics::GLOBAL_MAP)?,
+            band: bus.subscriber(topics::CONTROLLER_BAND)?,
+            sim_state_out: bus.publisher(topics::SIM_STATE)?,
+            global_map_out: bus.publisher(topics::GLOBAL_MAP)?,
+            band_out: bus.publisher(topics::CONTROLLER_BAND)?,
             sim_state_copy: Vec::new(),
             global_map_copy: Vec::new(),
             band_copy: Vec::new(),
         };
         let watch = Watch {
-            sim_command: bus.publisher(services::SIM_COMMAND)?,
-            goal: bus.publisher(services::CONTROLLER_GOAL)?,
-            mapper_control: bus.publisher(services::MAPPER_CONTROL)?,
+            sim_command: bus.publisher(topics::SIM_COMMAND)?,
+            goal: bus.publisher(topics::CONTROLLER_GOAL)?,
+            mapper_control: bus.publisher(topics::MAPPER_CONTROL)?,
             keeper,
             group,
             info,

@@ -6,15 +6,17 @@
 //! replaces the task; `Idle` clears it. Without a task, or when a step fails, the
 //! trajectory is a single zero command, so the robot stops.
 //!
-//! Adapter only: the optimisation is [`crate::TebController`].
+//! Adapter only: the optimisation is [`crate::TebController`]; the loop around it is
+//! the node runtime's (`aisle_node::run`).
 
 use crate::{Band, Goal, Mode, Snapshot, StepOutput, TebConfig, TebController};
-use aisle_bus::{Bus, NodeArgs, NodeError, StageTimer, Stamp, TickFollower, WaitOutcome};
+use aisle_bus::{NodeArgs, NodeError, StageTimer, Stamp};
 use aisle_geometry::{Footprint, GridView, PathPose, Pose2};
 use aisle_messages::{
-    ControllerBand, ControllerGoal, GoalMode, MAX_COMMANDS, NodeKind, OccupancyGrid, RobotState,
-    STAGE_CONTROLLER, StageStatus, TickMode, Trajectory, services,
+    ControllerBand, ControllerGoal, GoalMode, MAX_COMMANDS, NodeKind, OccupancyGrid,
+    STAGE_CONTROLLER, StageStatus, Tick, TickMode, Topic, Trajectory, topics,
 };
+use aisle_node::{Cycle, Io, RunContext, Stage};
 use std::time::Duration;
 
 const MAP_TIMEOUT: Duration = Duration::from_secs(30);
@@ -54,65 +56,6 @@ impl MapCopy {
     }
 }
 
-/// A restarted controller takes its task back (the newest goal) and, in lockstep when
-/// its last band belongs to that goal, the band itself. Returns the tick of that band.
-fn resume(
-    bus: &Bus,
-    teb: &mut TebController,
-    task: &mut Task,
-    mode: TickMode,
-) -> Result<Option<u64>, NodeError> {
-    let wait = Duration::from_secs(1);
-    let goals = bus.subscriber::<ControllerGoal>(services::CONTROLLER_GOAL)?;
-    let (WaitOutcome::Matched, Some(goal)) = goals.wait_for(wait, |_| true, || {})? else {
-        return Ok(None);
-    };
-    task.goal_id = goal.goal_id;
-    match goal_of(&goal) {
-        Some(Ok(g)) => {
-            teb.set_goal(&g)
-                .map_err(|e| NodeError::Protocol(format!("teb_controller: resuming goal: {e}")))?;
-            task.active = true;
-        }
-        Some(Err(e)) => {
-            return Err(NodeError::Protocol(format!(
-                "teb_controller: resuming goal: {e}"
-            )));
-        }
-        None => teb.clear_goal(),
-    }
-    let bands = bus.subscriber::<ControllerBand>(services::CONTROLLER_BAND)?;
-    let (WaitOutcome::Matched, Some(b)) = bands.wait_for(wait, |_| true, || {})? else {
-        return Ok(None);
-    };
-    // In realtime the robot has moved on since that band (and was stopped): start a fresh
-    // band from where it stands. In lockstep nothing moved, and resuming the band keeps
-    // the run identical to an undisturbed one.
-    if mode == TickMode::Lockstep && b.goal_id == task.goal_id && task.active {
-        let n = (b.len as usize).min(MAX_COMMANDS);
-        let band = Band {
-            poses: b.poses[..n]
-                .iter()
-                .map(|p| Pose2::new(p.x, p.y, p.theta))
-                .collect(),
-            dts: b.dts[..n.saturating_sub(1)].to_vec(),
-        };
-        let snap = Snapshot {
-            band,
-            section: b.section as usize,
-            progress: b.progress,
-        };
-        teb.restore(&snap)
-            .map_err(|e| NodeError::Protocol(format!("teb_controller: resuming band: {e}")))?;
-    }
-    tracing::warn!(
-        "teb_controller: resumed goal {} after tick {}",
-        task.goal_id,
-        b.header.tick
-    );
-    Ok(Some(b.header.tick))
-}
-
 /// The task the controller is on, by goal id.
 struct Task {
     goal_id: u64,
@@ -145,73 +88,52 @@ fn goal_of(msg: &ControllerGoal) -> Option<Result<Goal, String>> {
     }))
 }
 
-pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
-    let path = args.config_dir.join("teb.toml");
-    let cfg = TebConfig::load(&path).map_err(|e| NodeError::setup("teb_controller", e))?;
-    let mut teb = TebController::new(cfg)
-        .map_err(|e| NodeError::setup(format!("teb_controller: {}", path.display()), e))?;
+/// The controller as a stage: one TEB step on every controller tick.
+pub struct ControllerStage {
+    teb: TebController,
+    task: Task,
+    mode: TickMode,
+    /// The last controller tick stepped: a tick seen again (the simulator restarted) is
+    /// only acknowledged, so the band is never stepped twice for one tick.
+    last_done: Option<u64>,
+    pose: Pose2,
+    velocity: (f64, f64),
+    /// The local map in use, copied out of shared memory (a realtime step may have to
+    /// reuse it when no newer one arrived). Capacity is reserved once.
+    map: MapCopy,
+}
 
-    let (bus, info) = Bus::join(
-        &args.instance,
-        NodeKind::TebController,
-        NodeArgs::JOIN_TIMEOUT,
-    )?;
-    let mode = TickMode::from_u32(info.mode).unwrap_or(TickMode::Lockstep);
-    let robot = bus.subscriber::<RobotState>(services::ROBOT_STATE)?;
-    let goals = bus.subscriber::<ControllerGoal>(services::CONTROLLER_GOAL)?;
-    let maps = bus.subscriber::<OccupancyGrid>(services::LOCAL_MAP)?;
-    let mut trajectory = bus.publisher::<Trajectory>(services::TRAJECTORY)?;
-    let mut band = bus.publisher::<ControllerBand>(services::CONTROLLER_BAND)?;
-    let mut ticks = TickFollower::new(&bus)?;
-
-    let mut task = Task {
-        goal_id: 0,
-        active: false,
-    };
-    // The last controller tick stepped: a tick seen again (the simulator restarted) is
-    // only acknowledged, so the band is never stepped twice for one tick.
-    let mut last_done: Option<u64> = None;
-    if args.restarted {
-        last_done = resume(&bus, &mut teb, &mut task, mode)?;
+impl ControllerStage {
+    /// Loads `teb.toml` from `config_dir`.
+    pub fn new(config_dir: &std::path::Path, start: Pose2) -> Result<ControllerStage, NodeError> {
+        let path = config_dir.join("teb.toml");
+        let cfg = TebConfig::load(&path).map_err(|e| NodeError::setup("teb_controller", e))?;
+        let teb = TebController::new(cfg)
+            .map_err(|e| NodeError::setup(format!("teb_controller: {}", path.display()), e))?;
+        Ok(ControllerStage {
+            teb,
+            task: Task {
+                goal_id: 0,
+                active: false,
+            },
+            mode: TickMode::Lockstep,
+            last_done: None,
+            pose: start,
+            velocity: (0.0, 0.0),
+            map: MapCopy {
+                cells: Vec::with_capacity(aisle_messages::MAX_GRID_CELLS),
+                ..MapCopy::default()
+            },
+        })
     }
-    ticks.ready()?;
-    let mut pose = Pose2::new(args.start[0], args.start[1], args.start[2]);
-    let mut velocity = (0.0, 0.0);
-    // The local map in use, copied out of shared memory (a realtime step may have to
-    // reuse it when no newer one arrived). Capacity is reserved once.
-    let mut map = MapCopy {
-        cells: Vec::with_capacity(aisle_messages::MAX_GRID_CELLS),
-        ..MapCopy::default()
-    };
-    loop {
-        let tick = ticks.wait_tick_refreshing(|| {
-            let _ = trajectory.update_connections();
-            let _ = band.update_connections();
-        })?;
-        if tick.stages & STAGE_CONTROLLER == 0 {
-            ticks.done(&tick, StageStatus::Idle, 0)?;
-            continue;
-        }
-        let k = tick.header.tick;
-        if last_done.is_some_and(|d| k <= d) {
-            ticks.done(&tick, StageStatus::Done, 0)?;
-            continue;
-        }
-        last_done = Some(k);
-        // The local map of this tick (lockstep), or the newest one (realtime).
-        match mode {
+
+    /// Copies the local map of tick `k` (lockstep) or the newest one (realtime).
+    fn take_map(&mut self, io: &impl Io, k: u64) -> Result<(), NodeError> {
+        match self.mode {
             TickMode::Lockstep => {
-                let hb = ticks.heartbeat();
-                let (outcome, sample) = maps.wait_for(
-                    MAP_TIMEOUT,
-                    |m| m.header.tick >= k,
-                    || {
-                        let _ = hb.tick(aisle_messages::NodeState::Running);
-                    },
-                )?;
-                match (outcome, sample) {
-                    (WaitOutcome::Matched, Some(m)) => map.copy_from(&m),
-                    _ => {
+                match io.wait_for(topics::LOCAL_MAP, MAP_TIMEOUT, |m| m.header.tick >= k)? {
+                    Some(m) => self.map.copy_from(&m),
+                    None => {
                         return Err(NodeError::Protocol(format!(
                             "teb_controller: no local map for tick {k}"
                         )));
@@ -219,45 +141,210 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
                 }
             }
             TickMode::Realtime => {
-                if let Some(m) = maps.latest()? {
-                    map.copy_from(&m);
+                if let Some(m) = io.latest(topics::LOCAL_MAP)? {
+                    self.map.copy_from(&m);
                 }
             }
         }
-        let timer = StageTimer::start();
-        if let Some(rs) = robot.latest()? {
-            pose = rs.pose.into();
-            velocity = (rs.twist[0], rs.twist[1]);
-        }
-        if let Some(g) = goals.latest()?
-            && g.goal_id != task.goal_id
+        Ok(())
+    }
+
+    /// Takes a new goal (by id) from the supervisor, if one arrived.
+    fn take_goal(&mut self, io: &impl Io) -> Result<(), NodeError> {
+        if let Some(g) = io.latest(topics::CONTROLLER_GOAL)?
+            && g.goal_id != self.task.goal_id
         {
-            task.goal_id = g.goal_id;
-            task.active = false;
+            self.task.goal_id = g.goal_id;
+            self.task.active = false;
             match goal_of(&g) {
-                None => teb.clear_goal(),
-                Some(Ok(goal)) => match teb.set_goal(&goal) {
-                    Ok(()) => task.active = true,
+                None => self.teb.clear_goal(),
+                Some(Ok(goal)) => match self.teb.set_goal(&goal) {
+                    Ok(()) => self.task.active = true,
                     Err(e) => tracing::warn!("teb_controller: goal {} refused: {e}", g.goal_id),
                 },
                 Some(Err(e)) => tracing::warn!("teb_controller: goal {} refused: {e}", g.goal_id),
             }
         }
-        let stamp = Stamp::of(&tick.header);
-        let start_ns = tick.header.stamp_ns;
-        let now_s = start_ns as f64 * 1e-9;
-        let goal_id = task.goal_id;
-        let step: Option<Result<&StepOutput, String>> = match (map.cells.is_empty(), task.active) {
+        Ok(())
+    }
+
+    /// One TEB step at `now_s`; `None` without a task.
+    fn step(&mut self, now_s: f64) -> Option<Result<&StepOutput, String>> {
+        match (self.map.cells.is_empty(), self.task.active) {
             (_, false) => None,
             (true, true) => Some(Err("no local map yet".into())),
-            (false, true) => match map.view() {
+            (false, true) => match self.map.view() {
                 Ok(view) => Some(
-                    teb.step(pose, velocity, now_s, &view)
+                    self.teb
+                        .step(self.pose, self.velocity, now_s, &view)
                         .map_err(|e| e.to_string()),
                 ),
                 Err(e) => Some(Err(format!("local map: {e}"))),
             },
+        }
+    }
+}
+
+/// Writes a step's outcome into a `Trajectory`: its commands, or a single zero command.
+fn fill_trajectory(
+    t: &mut Trajectory,
+    step: &Option<Result<&StepOutput, String>>,
+    goal_id: u64,
+    start_ns: u64,
+    compute_ns: u64,
+) {
+    let now_s = start_ns as f64 * 1e-9;
+    t.goal_id = goal_id;
+    t.start_ns = start_ns;
+    t.solve_ns = compute_ns;
+    match step {
+        Some(Ok(out)) => {
+            let n = out.commands.len().min(MAX_COMMANDS);
+            t.len = n as u32;
+            for (dst, c) in t.commands.iter_mut().zip(&out.commands[..n]) {
+                // The library's times are absolute; the message's count from start_ns.
+                dst.t = c.t - now_s;
+                dst.v = c.v;
+                dst.w = c.w;
+            }
+            let np = out.poses.len().min(MAX_COMMANDS);
+            t.poses_len = np as u32;
+            for (dst, p) in t.poses.iter_mut().zip(&out.poses[..np]) {
+                dst.t = p.t - now_s;
+                dst.x = p.pose.x;
+                dst.y = p.pose.y;
+                dst.theta = p.pose.theta;
+            }
+            t.exit_flag = out.exit_flag.code() as u32;
+            t.last_feasible_index = out.last_feasible_index as i32;
+            t.reached_goal = out.reached_goal as u32;
+            t.iterations = out.iterations as u32;
+            t.cost = out.cost;
+            t.max_violation = out.max_violation;
+        }
+        Some(Err(_)) => {
+            // Stop: one zero command, flagged as infeasible so the supervisor replans.
+            t.len = 1;
+            t.exit_flag = 1;
+            t.last_feasible_index = -1;
+        }
+        None => {
+            t.len = 1;
+            t.last_feasible_index = -1;
+        }
+    }
+}
+
+/// Writes the controller's resumable state (its band) into a `ControllerBand`.
+fn fill_band(m: &mut ControllerBand, snap: &Snapshot, goal_id: u64) {
+    m.goal_id = goal_id;
+    let b = &snap.band;
+    let n = b.poses.len().min(MAX_COMMANDS);
+    m.len = n as u32;
+    m.section = snap.section as u32;
+    m.progress = snap.progress;
+    let mut t = 0.0;
+    for (i, (dst, p)) in m.poses.iter_mut().zip(&b.poses[..n]).enumerate() {
+        dst.t = t;
+        dst.x = p.x;
+        dst.y = p.y;
+        dst.theta = p.theta;
+        t += b.dts.get(i).copied().unwrap_or(0.0);
+    }
+    for (dst, dt) in m.dts.iter_mut().zip(&b.dts) {
+        *dst = *dt;
+    }
+}
+
+impl Stage for ControllerStage {
+    const KIND: NodeKind = NodeKind::TebController;
+    type Trigger = Tick;
+    const TRIGGER: Topic<Tick> = topics::TICK;
+    const NEWEST_ONLY: bool = true;
+
+    fn start(&mut self, _io: &impl Io, ctx: &RunContext) -> Result<(), NodeError> {
+        self.mode = ctx.mode;
+        Ok(())
+    }
+
+    /// A restarted controller takes its task back (the newest goal) and, in lockstep
+    /// when its last band belongs to that goal, the band itself.
+    fn restore(&mut self, io: &impl Io, ctx: &RunContext) -> Result<(), NodeError> {
+        let wait = Duration::from_secs(1);
+        let Some(goal) = io.wait_for(topics::CONTROLLER_GOAL, wait, |_| true)? else {
+            return Ok(());
         };
+        self.task.goal_id = goal.goal_id;
+        match goal_of(&goal) {
+            Some(Ok(g)) => {
+                self.teb.set_goal(&g).map_err(|e| {
+                    NodeError::Protocol(format!("teb_controller: resuming goal: {e}"))
+                })?;
+                self.task.active = true;
+            }
+            Some(Err(e)) => {
+                return Err(NodeError::Protocol(format!(
+                    "teb_controller: resuming goal: {e}"
+                )));
+            }
+            None => self.teb.clear_goal(),
+        }
+        let Some(b) = io.retained(topics::CONTROLLER_BAND, wait)? else {
+            return Ok(());
+        };
+        // In realtime the robot has moved on since that band (and was stopped): start a
+        // fresh band from where it stands. In lockstep nothing moved, and resuming the
+        // band keeps the run identical to an undisturbed one.
+        if ctx.mode == TickMode::Lockstep && b.goal_id == self.task.goal_id && self.task.active {
+            let n = (b.len as usize).min(MAX_COMMANDS);
+            let band = Band {
+                poses: b.poses[..n]
+                    .iter()
+                    .map(|p| Pose2::new(p.x, p.y, p.theta))
+                    .collect(),
+                dts: b.dts[..n.saturating_sub(1)].to_vec(),
+            };
+            let snap = Snapshot {
+                band,
+                section: b.section as usize,
+                progress: b.progress,
+            };
+            self.teb
+                .restore(&snap)
+                .map_err(|e| NodeError::Protocol(format!("teb_controller: resuming band: {e}")))?;
+        }
+        tracing::warn!(
+            "teb_controller: resumed goal {} after tick {}",
+            self.task.goal_id,
+            b.header.tick
+        );
+        self.last_done = Some(b.header.tick);
+        Ok(())
+    }
+
+    fn process(&mut self, tick: &Tick, io: &impl Io) -> Result<Cycle, NodeError> {
+        if tick.stages & STAGE_CONTROLLER == 0 {
+            return Ok(Cycle {
+                status: StageStatus::Idle,
+                compute_ns: Some(0),
+            });
+        }
+        let k = tick.header.tick;
+        if self.last_done.is_some_and(|d| k <= d) {
+            return Ok(Cycle::repeat());
+        }
+        self.last_done = Some(k);
+        self.take_map(io, k)?;
+        let timer = StageTimer::start();
+        if let Some(rs) = io.latest(topics::ROBOT_STATE)? {
+            self.pose = rs.pose.into();
+            self.velocity = (rs.twist[0], rs.twist[1]);
+        }
+        self.take_goal(io)?;
+        let stamp = Stamp::of(&tick.header);
+        let start_ns = tick.header.stamp_ns;
+        let goal_id = self.task.goal_id;
+        let step = self.step(start_ns as f64 * 1e-9);
         let status = match &step {
             Some(Err(e)) => {
                 tracing::warn!("teb_controller: step of tick {k} failed: {e}");
@@ -266,67 +353,80 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
             _ => StageStatus::Done,
         };
         let compute_ns = timer.elapsed_ns();
-        trajectory.publish(stamp, |t| {
-            t.goal_id = goal_id;
-            t.start_ns = start_ns;
-            t.solve_ns = compute_ns;
-            match &step {
-                Some(Ok(out)) => {
-                    let n = out.commands.len().min(MAX_COMMANDS);
-                    t.len = n as u32;
-                    for (dst, c) in t.commands.iter_mut().zip(&out.commands[..n]) {
-                        // The library's times are absolute; the message's count from start_ns.
-                        dst.t = c.t - now_s;
-                        dst.v = c.v;
-                        dst.w = c.w;
-                    }
-                    let np = out.poses.len().min(MAX_COMMANDS);
-                    t.poses_len = np as u32;
-                    for (dst, p) in t.poses.iter_mut().zip(&out.poses[..np]) {
-                        dst.t = p.t - now_s;
-                        dst.x = p.pose.x;
-                        dst.y = p.pose.y;
-                        dst.theta = p.pose.theta;
-                    }
-                    t.exit_flag = out.exit_flag.code() as u32;
-                    t.last_feasible_index = out.last_feasible_index as i32;
-                    t.reached_goal = out.reached_goal as u32;
-                    t.iterations = out.iterations as u32;
-                    t.cost = out.cost;
-                    t.max_violation = out.max_violation;
-                }
-                Some(Err(_)) => {
-                    // Stop: one zero command, flagged as infeasible so the supervisor replans.
-                    t.len = 1;
-                    t.exit_flag = 1;
-                    t.last_feasible_index = -1;
-                }
-                None => {
-                    t.len = 1;
-                    t.last_feasible_index = -1;
-                }
-            }
+        io.publish(topics::TRAJECTORY, stamp, |t| {
+            fill_trajectory(t, &step, goal_id, start_ns, compute_ns)
         })?;
-        let snap = teb.snapshot();
-        band.publish(stamp, |m| {
-            m.goal_id = goal_id;
-            let b = &snap.band;
-            let n = b.poses.len().min(MAX_COMMANDS);
-            m.len = n as u32;
-            m.section = snap.section as u32;
-            m.progress = snap.progress;
-            let mut t = 0.0;
-            for (i, (dst, p)) in m.poses.iter_mut().zip(&b.poses[..n]).enumerate() {
-                dst.t = t;
-                dst.x = p.x;
-                dst.y = p.y;
-                dst.theta = p.theta;
-                t += b.dts.get(i).copied().unwrap_or(0.0);
-            }
-            for (dst, dt) in m.dts.iter_mut().zip(&b.dts) {
-                *dst = *dt;
-            }
+        let snap = self.teb.snapshot();
+        io.publish(topics::CONTROLLER_BAND, stamp, |m| {
+            fill_band(m, &snap, goal_id)
         })?;
-        ticks.done(&tick, status, compute_ns)?;
+        Ok(Cycle {
+            status,
+            compute_ns: Some(compute_ns),
+        })
+    }
+}
+
+pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
+    let start = Pose2::new(args.start[0], args.start[1], args.start[2]);
+    let mut stage = ControllerStage::new(&args.config_dir, start)?;
+    aisle_node::run(&mut stage, args)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use aisle_node::testing::MemIo;
+
+    fn stage() -> ControllerStage {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config");
+        ControllerStage::new(&dir, Pose2::new(0.0, 0.0, 0.0)).unwrap()
+    }
+
+    fn tick(k: u64, stages: u32) -> Tick {
+        let mut t = *aisle_messages::zeroed_box::<Tick>();
+        t.header.tick = k;
+        t.header.stamp_ns = k * 100_000_000;
+        t.stages = stages;
+        t
+    }
+
+    #[test]
+    fn other_ticks_are_acknowledged_idle_without_output() {
+        let (mut s, io) = (stage(), MemIo::new());
+        let c = s.process(&tick(1, 0), &io).unwrap();
+        assert_eq!(c.status, StageStatus::Idle);
+        assert_eq!(io.published_len(topics::TRAJECTORY), 0);
+    }
+
+    #[test]
+    fn without_a_goal_the_robot_is_told_to_stop_and_a_repeat_is_not_stepped() {
+        let (mut s, io) = (stage(), MemIo::new());
+        io.push(topics::LOCAL_MAP, |m| {
+            m.header.tick = 5;
+            m.width = 4;
+            m.height = 4;
+            m.resolution = 0.1;
+        });
+        let c = s.process(&tick(5, STAGE_CONTROLLER), &io).unwrap();
+        assert_eq!(c.status, StageStatus::Done);
+        let (len, v, w, start) = io
+            .published(topics::TRAJECTORY, 0, |t| {
+                (t.len, t.commands[0].v, t.commands[0].w, t.start_ns)
+            })
+            .unwrap();
+        assert_eq!((len, v, w, start), (1, 0.0, 0.0, 500_000_000));
+        assert_eq!(io.published_len(topics::CONTROLLER_BAND), 1);
+        // The same tick again (a restarted simulator): acknowledged, not stepped.
+        let c = s.process(&tick(5, STAGE_CONTROLLER), &io).unwrap();
+        assert_eq!(c, Cycle::repeat());
+        assert_eq!(io.published_len(topics::TRAJECTORY), 1);
+    }
+
+    #[test]
+    fn lockstep_without_the_local_map_of_the_tick_is_an_error() {
+        let (mut s, io) = (stage(), MemIo::new());
+        let e = s.process(&tick(5, STAGE_CONTROLLER), &io).unwrap_err();
+        assert!(e.to_string().contains("no local map for tick 5"), "{e}");
     }
 }

@@ -19,7 +19,7 @@
 
 use aisle_bus::{Bus, Instance, Stamp, Subscriber, WaitOutcome, clock};
 use aisle_messages::{
-    Heartbeat, Message, NodeKind, NodeState, PointCloud, TickDone, TickMode, services,
+    Heartbeat, Message, NodeKind, NodeState, PointCloud, TickDone, TickMode, Topic, topics,
 };
 use anyhow::{Context, Result, bail};
 use serde::{Deserialize, Serialize};
@@ -316,7 +316,7 @@ fn measure_in(
     count: usize,
 ) -> Result<ChildReport> {
     let (bus, info) = Bus::create_instance(instance, 0, TickMode::Lockstep)?;
-    let heartbeats = bus.subscriber::<Heartbeat>(services::HEARTBEAT)?;
+    let heartbeats = bus.subscriber(topics::HEARTBEAT)?;
     let mut sender = Sender::new(&bus, message)?;
 
     let mut child = Command::new(std::env::current_exe().context("locating this binary")?)
@@ -395,8 +395,8 @@ enum Sender {
 impl Sender {
     fn new(bus: &Bus, message: Payload) -> Result<Sender> {
         Ok(match message {
-            Payload::Cloud => Sender::Cloud(bus.publisher(services::POINT_CLOUD)?),
-            Payload::Small => Sender::Small(bus.publisher(services::TICK_DONE)?),
+            Payload::Cloud => Sender::Cloud(bus.publisher(topics::POINT_CLOUD)?),
+            Payload::Small => Sender::Small(bus.publisher(topics::TICK_DONE)?),
         })
     }
 
@@ -443,10 +443,10 @@ impl Sender {
 fn run_child(args: &ChildArgs) -> Result<()> {
     let (bus, _info) = Bus::join(&args.instance, NodeKind::Replay, JOIN_TIMEOUT)?;
     let report = match args.message {
-        Payload::Cloud => receive_all(&bus, services::POINT_CLOUD, args, |m: &PointCloud| {
+        Payload::Cloud => receive_all(&bus, topics::POINT_CLOUD, args, |m: &PointCloud| {
             m.rows == CLOUD_ROWS && m.cols == CLOUD_COLS
         })?,
-        Payload::Small => receive_all(&bus, services::TICK_DONE, args, |_: &TickDone| true)?,
+        Payload::Small => receive_all(&bus, topics::TICK_DONE, args, |_: &TickDone| true)?,
     };
     println!("{}", serde_json::to_string(&report)?);
     Ok(())
@@ -456,11 +456,11 @@ fn run_child(args: &ChildArgs) -> Result<()> {
 /// summarises the latencies. `valid` checks that the payload is what the parent wrote.
 fn receive_all<M: Message>(
     bus: &Bus,
-    service: &'static str,
+    topic: Topic<M>,
     args: &ChildArgs,
     valid: impl Fn(&M) -> bool,
 ) -> Result<ChildReport> {
-    let sub = bus.subscriber::<M>(service)?;
+    let sub = bus.subscriber(topic)?;
     // Kept until the end: the parent maps the heartbeat from this publisher's memory.
     let mut heartbeat = bus.heartbeat()?;
     heartbeat.send(NodeState::Ready, "")?;

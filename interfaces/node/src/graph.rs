@@ -1,0 +1,304 @@
+//! The process graph, declared once in `config/graph.toml`: the nodes, the topics each
+//! publishes and subscribes, and which ticks each acknowledges.
+//!
+//! Everything that must know the wiring asks this module: the supervisor (which nodes to
+//! launch), the simulator and the supervisor (whose acknowledgement a tick waits for:
+//! [`Graph::acknowledgers`], [`Graph::waits_of`]), every node's runtime (which ports it
+//! may open: [`NodeDecl::may_publish`]), the recorder and the lockstep replay (who
+//! produces a topic: [`Graph::producer`]). A graph is checked against the topic table
+//! when it is loaded, so a misspelt topic or node is an error naming file and key.
+//!
+//! Knows names and declarations; it does not open ports or run anything.
+
+use aisle_config::ConfigError;
+use aisle_messages::{NodeKind, STAGE_CONTROLLER, topics};
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// The graph shipped in `config/graph.toml`, used when a config directory has none.
+pub const SHIPPED: &str = include_str!("../../../config/graph.toml");
+
+/// Which ticks a node answers with `TickDone`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Acknowledges {
+    EveryTick,
+    /// Ticks flagged [`STAGE_CONTROLLER`].
+    ControllerTicks,
+    None,
+}
+
+impl Acknowledges {
+    /// Whether a tick with these `stages` flags needs this node's acknowledgement.
+    pub fn tick(self, stages: u32) -> bool {
+        match self {
+            Acknowledges::EveryTick => true,
+            Acknowledges::ControllerTicks => stages & STAGE_CONTROLLER != 0,
+            Acknowledges::None => false,
+        }
+    }
+}
+
+/// One node of the graph.
+#[derive(Debug, Clone, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NodeDecl {
+    pub name: String,
+    #[serde(default = "yes")]
+    pub launched: bool,
+    pub publishes: Vec<String>,
+    pub subscribes: Vec<String>,
+    #[serde(default)]
+    pub retains: Vec<String>,
+    pub acknowledges: Acknowledges,
+    #[serde(default)]
+    pub after: Vec<String>,
+}
+
+fn yes() -> bool {
+    true
+}
+
+impl NodeDecl {
+    /// The node kind this declaration names.
+    pub fn kind(&self) -> NodeKind {
+        NodeKind::from_name(&self.name).expect("checked when the graph was loaded")
+    }
+
+    fn lists(list: &[String], topic: &str) -> bool {
+        list.iter().any(|t| t == topic || t == "*")
+    }
+
+    pub fn may_publish(&self, topic: &str) -> bool {
+        Self::lists(&self.publishes, topic) || Self::lists(&self.retains, topic)
+    }
+
+    pub fn may_subscribe(&self, topic: &str) -> bool {
+        Self::lists(&self.subscribes, topic)
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct GraphFile {
+    node: Vec<NodeDecl>,
+}
+
+/// The checked graph.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Graph {
+    nodes: Vec<NodeDecl>,
+}
+
+impl Graph {
+    /// The graph of `config_dir/graph.toml`, or the shipped one when the directory has
+    /// no such file (config directories written before the graph existed).
+    pub fn load_dir(config_dir: &Path) -> Result<Graph, ConfigError> {
+        let path = config_dir.join("graph.toml");
+        if path.exists() {
+            Self::load(&path)
+        } else {
+            Self::parse(Path::new("<shipped>/graph.toml"), SHIPPED)
+        }
+    }
+
+    pub fn load(path: &Path) -> Result<Graph, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+            file: path.to_path_buf(),
+            source,
+        })?;
+        Self::parse(path, &text)
+    }
+
+    /// The shipped graph.
+    pub fn shipped() -> Graph {
+        Self::parse(Path::new("<shipped>/graph.toml"), SHIPPED).expect("the shipped graph is valid")
+    }
+
+    pub fn parse(path: &Path, text: &str) -> Result<Graph, ConfigError> {
+        let file: GraphFile = aisle_config::parse_toml(path, text)?;
+        let graph = Graph { nodes: file.node };
+        graph
+            .check()
+            .map_err(|(key, reason)| ConfigError::invalid(path, text, &key, reason))?;
+        Ok(graph)
+    }
+
+    /// Every name resolves, no node is declared twice, `after` names acknowledging nodes.
+    fn check(&self) -> Result<(), (String, String)> {
+        let known: Vec<&str> = NodeKind::ALL.iter().map(|k| k.name()).collect();
+        for (i, n) in self.nodes.iter().enumerate() {
+            let key = |field: &str| format!("node[{i}].{field}");
+            if NodeKind::from_name(&n.name).is_none() {
+                return Err((
+                    key("name"),
+                    format!(
+                        "no node called `{}`; nodes are {}",
+                        n.name,
+                        known.join(", ")
+                    ),
+                ));
+            }
+            if self.nodes[..i].iter().any(|m| m.name == n.name) {
+                return Err((key("name"), format!("`{}` is declared twice", n.name)));
+            }
+            for (field, list) in [
+                ("publishes", &n.publishes),
+                ("subscribes", &n.subscribes),
+                ("retains", &n.retains),
+            ] {
+                if let Some(t) = list.iter().find(|t| *t != "*" && topics::info(t).is_none()) {
+                    let names: Vec<&str> = topics::ALL.iter().map(|t| t.name).collect();
+                    return Err((
+                        key(field),
+                        format!("no topic called `{t}`; topics are {}", names.join(", ")),
+                    ));
+                }
+            }
+            for a in &n.after {
+                let Some(m) = self.nodes.iter().find(|m| &m.name == a) else {
+                    return Err((key("after"), format!("no node called `{a}` in the graph")));
+                };
+                if m.acknowledges == Acknowledges::None || m.name == n.name {
+                    return Err((
+                        key("after"),
+                        format!("`{a}` acknowledges no ticks, so nothing can wait for it"),
+                    ));
+                }
+            }
+        }
+        for k in NodeKind::LAUNCHED {
+            if !self.nodes.iter().any(|n| n.name == k.name()) {
+                return Err((
+                    "node".into(),
+                    format!("the built-in node `{}` is missing", k.name()),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    pub fn nodes(&self) -> &[NodeDecl] {
+        &self.nodes
+    }
+
+    pub fn node(&self, kind: NodeKind) -> Option<&NodeDecl> {
+        self.nodes.iter().find(|n| n.name == kind.name())
+    }
+
+    /// The nodes the supervisor starts, in declaration order.
+    pub fn launched(&self) -> impl Iterator<Item = NodeKind> + '_ {
+        self.nodes.iter().filter(|n| n.launched).map(NodeDecl::kind)
+    }
+
+    /// The node that publishes `topic` in a run (the first that declares it); `None` for
+    /// topics every node publishes (`TickDone`, heartbeats) and undeclared ones.
+    pub fn producer(&self, topic: &str) -> Option<NodeKind> {
+        self.nodes
+            .iter()
+            .find(|n| n.publishes.iter().any(|t| t == topic))
+            .map(NodeDecl::kind)
+    }
+
+    /// Every node that must acknowledge a tick flagged `stages` before the simulator
+    /// steps. `present` says whether an optional node (the recorder) takes part.
+    pub fn acknowledgers(&self, stages: u32, present: impl Fn(NodeKind) -> bool) -> Vec<NodeKind> {
+        self.nodes
+            .iter()
+            .filter(|n| n.acknowledges.tick(stages))
+            .map(NodeDecl::kind)
+            .filter(|k| present(*k))
+            .collect()
+    }
+
+    /// The nodes whose acknowledgement of a tick flagged `stages` `node` waits for before
+    /// it acts on that tick.
+    pub fn waits_of(&self, node: NodeKind, stages: u32) -> Vec<NodeKind> {
+        let Some(decl) = self.node(node) else {
+            return Vec::new();
+        };
+        decl.after
+            .iter()
+            .filter_map(|a| self.nodes.iter().find(|n| &n.name == a))
+            .filter(|n| n.acknowledges.tick(stages))
+            .map(NodeDecl::kind)
+            .collect()
+    }
+}
+
+/// The path a node's graph is read from, for messages.
+pub fn path_in(config_dir: &Path) -> PathBuf {
+    config_dir.join("graph.toml")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_shipped_graph_says_who_waits_for_whom() {
+        let g = Graph::shipped();
+        let all = |_| true;
+        use NodeKind::*;
+        assert_eq!(
+            g.acknowledgers(0, all),
+            [Lidar, Mapper, Supervisor, Recorder]
+        );
+        assert_eq!(
+            g.acknowledgers(STAGE_CONTROLLER, |k| k != Recorder),
+            [Lidar, Mapper, TebController, Supervisor]
+        );
+        assert_eq!(g.waits_of(Supervisor, 0), [Lidar, Mapper]);
+        assert_eq!(
+            g.waits_of(Supervisor, STAGE_CONTROLLER),
+            [Lidar, Mapper, TebController]
+        );
+        assert_eq!(g.waits_of(Recorder, 0), [Supervisor]);
+        assert_eq!(g.producer(topics::POINT_CLOUD.name), Some(Lidar));
+        assert_eq!(g.producer(topics::TICK_DONE.name), None);
+        assert_eq!(g.producer(topics::CONTROLLER_GOAL.name), Some(Supervisor));
+        let launched: Vec<_> = g.launched().collect();
+        assert_eq!(launched, NodeKind::LAUNCHED);
+    }
+
+    #[test]
+    fn a_misspelt_topic_or_node_names_file_line_and_key() {
+        let bad = SHIPPED.replace("\"aisle/lidar/points\"]", "\"aisle/lidar/pionts\"]");
+        let e = Graph::parse(Path::new("g.toml"), &bad)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("g.toml:") && e.contains("node[1].publishes"),
+            "{e}"
+        );
+        assert!(e.contains("aisle/lidar/pionts"), "{e}");
+        let bad = SHIPPED.replace("after = [\"supervisor\"]", "after = [\"global_planner\"]");
+        let e = Graph::parse(Path::new("g.toml"), &bad)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("node[6].after") && e.contains("acknowledges no ticks"),
+            "{e}"
+        );
+        let bad = SHIPPED.replace("name = \"lidar\"", "name = \"lidarr\"");
+        let e = Graph::parse(Path::new("g.toml"), &bad)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("no node called `lidarr`"), "{e}");
+        let bad = SHIPPED.replace("acknowledges = \"none\"", "acknowledges = \"sometimes\"");
+        assert!(Graph::parse(Path::new("g.toml"), &bad).is_err());
+    }
+
+    #[test]
+    fn declarations_limit_ports() {
+        let g = Graph::shipped();
+        let lidar = g.node(NodeKind::Lidar).unwrap();
+        assert!(lidar.may_publish(topics::POINT_CLOUD.name));
+        assert!(!lidar.may_publish(topics::LOCAL_MAP.name));
+        assert!(lidar.may_subscribe(topics::TICK.name));
+        let sup = g.node(NodeKind::Supervisor).unwrap();
+        assert!(sup.may_publish(topics::SIM_STATE.name), "retained state");
+        let rec = g.node(NodeKind::Recorder).unwrap();
+        assert!(rec.may_subscribe(topics::TRAJECTORY.name));
+    }
+}

@@ -1,0 +1,60 @@
+//! The one loop every stage runs in: join, ports from the graph, restore after a
+//! restart, start, ready, then wait for the trigger, process, acknowledge, forever
+//! (until SIGINT/SIGTERM, which ends it as `BusError::StopRequested`).
+
+use crate::graph::{Acknowledges, Graph};
+use crate::{BusIo, RunContext, Stage};
+use aisle_bus::{Bus, NodeArgs, NodeError, StageTimer, Stamp};
+use aisle_messages::{Message, NodeState, TickDone, TickMode, topics};
+
+/// Runs `stage` as the node `S::KIND` of the instance in `args`.
+pub fn run<S: Stage>(stage: &mut S, args: &NodeArgs) -> Result<(), NodeError> {
+    let name = S::KIND.name();
+    let graph = Graph::load_dir(&args.config_dir).map_err(|e| NodeError::setup(name, e))?;
+    let decl = graph
+        .node(S::KIND)
+        .ok_or_else(|| NodeError::setup(name, "the graph does not declare this node"))?
+        .clone();
+    if !decl.may_subscribe(S::TRIGGER.name) {
+        return Err(NodeError::setup(
+            name,
+            format!(
+                "its trigger `{}` is not in its `subscribes` in graph.toml",
+                S::TRIGGER.name
+            ),
+        ));
+    }
+    let (bus, info) = Bus::join(&args.instance, S::KIND, NodeArgs::JOIN_TIMEOUT)?;
+    let ctx = RunContext {
+        mode: TickMode::from_u32(info.mode).unwrap_or(TickMode::Lockstep),
+        seed: info.seed,
+        restarted: args.restarted,
+    };
+    let io = BusIo::open(&bus, &decl)?;
+    let mut acks = (decl.acknowledges != Acknowledges::None)
+        .then(|| bus.publisher(topics::TICK_DONE))
+        .transpose()?;
+    if S::ANNOUNCES_START {
+        io.heartbeat(NodeState::Starting, "")?;
+    }
+    if ctx.restarted {
+        stage.restore(&io, &ctx)?;
+    }
+    stage.start(&io, &ctx)?;
+    io.heartbeat(NodeState::Ready, "")?;
+    loop {
+        let trigger = io.wait_trigger(S::TRIGGER, S::NEWEST_ONLY)?;
+        let timer = StageTimer::start();
+        let cycle = stage.process(&trigger, &io)?;
+        let compute_ns = cycle.compute_ns.unwrap_or_else(|| timer.elapsed_ns());
+        if let Some(acks) = acks.as_mut() {
+            let kind = S::KIND;
+            acks.publish(Stamp::of(Message::header(&*trigger)), |m: &mut TickDone| {
+                m.node = kind as u32;
+                m.status = cycle.status as u32;
+                m.compute_ns = compute_ns;
+            })?;
+        }
+        io.on_slice();
+    }
+}
