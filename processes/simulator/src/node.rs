@@ -65,14 +65,15 @@ struct Applied {
     trajectory: (u64, u64),
 }
 
-pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
+/// The world of `args.config_dir` with the robot at the mission's start.
+fn load_world(args: &NodeArgs) -> Result<World, NodeError> {
     let robot_toml = args.config_dir.join("robot.toml");
     let scene_path = args.config_dir.join("warehouse.toml");
     let (cfg, model) =
         crate::load_robot(&robot_toml).map_err(|e| NodeError::setup("simulator", e))?;
     let scene = Scene::load(&scene_path).map_err(|e| NodeError::setup("simulator", e))?;
     let start = Pose2::new(args.start[0], args.start[1], args.start[2]);
-    let mut world = World::new_at(&scene, &model, &cfg, start)
+    let world = World::new_at(&scene, &model, &cfg, start)
         .map_err(|e| NodeError::setup("simulator: start pose", e))?;
     if world.bodies().len() > MAX_BODIES {
         return Err(NodeError::setup(
@@ -83,12 +84,11 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
             ),
         ));
     }
+    Ok(world)
+}
 
-    let graph = Graph::load_dir(&args.config_dir).map_err(|e| NodeError::setup("simulator", e))?;
-    let mut awaited = Awaited::new();
-    let (bus, info) = Bus::join(&args.instance, NodeKind::Simulator, NodeArgs::JOIN_TIMEOUT)?;
-    let mode = TickMode::from_u32(info.mode).unwrap_or(TickMode::Lockstep);
-    let mut ports = Ports {
+fn open_ports(bus: &Bus) -> Result<Ports, NodeError> {
+    Ok(Ports {
         state: bus.publisher(topics::SIM_STATE)?,
         robot: bus.publisher(topics::ROBOT_STATE)?,
         truth: bus.publisher(topics::WORLD_TRUTH)?,
@@ -97,51 +97,133 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
         done_in: bus.subscriber(topics::TICK_DONE)?,
         commands: bus.subscriber(topics::SIM_COMMAND)?,
         trajectory: bus.subscriber(topics::TRAJECTORY)?,
-    };
-    let mut heartbeat = bus.heartbeat()?;
-    let mut applied = Applied::default();
-    let mut k: u64 = 0;
+    })
+}
 
-    if args.restarted {
-        let own = bus.subscriber(topics::SIM_STATE)?;
-        let (outcome, sample) = own.wait_for(RESUME_TIMEOUT, |_| true, || {})?;
-        let (WaitOutcome::Matched, Some(s)) = (outcome, sample) else {
-            return Err(NodeError::Protocol(
-                "simulator: restarted, but no published state to resume from".into(),
-            ));
-        };
-        let mut newest = *s;
-        drop(s);
-        while let Some(s) = own.receive()? {
-            newest = *s;
+/// A restarted simulator reads its last `SimState` back (kept by the supervisor) and
+/// resumes at that tick; returns the tick and what it had consumed.
+fn resume(bus: &Bus, world: &mut World) -> Result<(u64, Applied), NodeError> {
+    let own = bus.subscriber(topics::SIM_STATE)?;
+    let (outcome, sample) = own.wait_for(RESUME_TIMEOUT, |_| true, || {})?;
+    let (WaitOutcome::Matched, Some(s)) = (outcome, sample) else {
+        return Err(NodeError::Protocol(
+            "simulator: restarted, but no published state to resume from".into(),
+        ));
+    };
+    let mut newest = *s;
+    drop(s);
+    while let Some(s) = own.receive()? {
+        newest = *s;
+    }
+    restore(world, &newest)?;
+    let k = newest.next_tick;
+    tracing::warn!(
+        "simulator: resumed at tick {k} (t = {:.1} s)",
+        world.time_ns() as f64 * 1e-9
+    );
+    let applied = Applied {
+        command_id: newest.last_command_id,
+        trajectory: (newest.last_trajectory_tick, newest.last_trajectory_seq),
+    };
+    Ok((k, applied))
+}
+
+/// Waits for the supervisor's Start: every process is ready by then.
+fn wait_for_start(ports: &Ports, heartbeat: &mut HeartbeatSender) -> Result<(), NodeError> {
+    loop {
+        let (outcome, _) = ports.commands.wait_for(
+            Duration::from_millis(200),
+            |c| c.kind == SimCommandKind::Start as u32,
+            || {
+                let _ = heartbeat.tick(NodeState::Ready);
+            },
+        )?;
+        if outcome == WaitOutcome::Matched {
+            return Ok(());
         }
-        restore(&mut world, &newest)?;
-        k = newest.next_tick;
-        applied = Applied {
-            command_id: newest.last_command_id,
-            trajectory: (newest.last_trajectory_tick, newest.last_trajectory_seq),
-        };
+    }
+}
+
+/// Sleeps until the wall clock reaches `due` (realtime release of the next tick).
+fn sleep_until(due: u64) -> Result<(), NodeError> {
+    loop {
+        let now = clock::monotonic_ns();
+        if now >= due {
+            return Ok(());
+        }
+        if signals::stop_requested() {
+            return Err(aisle_bus::BusError::StopRequested.into());
+        }
+        std::thread::sleep(Duration::from_nanos((due - now).min(20_000_000)));
+    }
+}
+
+/// Applies the supervisor's new commands and the newest controller trajectory.
+fn apply_inputs(ports: &Ports, world: &mut World, applied: &mut Applied) -> Result<(), NodeError> {
+    while let Some(cmd) = ports.commands.receive()? {
+        // History replays commands to a restarted simulator: apply each once.
+        if cmd.command_id > applied.command_id {
+            applied.command_id = cmd.command_id;
+            apply_command(world, &cmd);
+        }
+    }
+    if let Some(traj) = ports.trajectory.latest()? {
+        let id = (traj.header.tick, traj.header.seq);
+        if id != applied.trajectory {
+            applied.trajectory = id;
+            let n = (traj.len as usize).min(traj.commands.len());
+            if n == 0 {
+                world.stop();
+            } else {
+                let cmds = traj.commands[..n].iter().map(|c| (c.t, c.v, c.w));
+                if let Err(e) = world.set_timeline_iter(traj.start_ns, cmds) {
+                    // A malformed timeline is refused; the watchdog stops the robot
+                    // when the previous one runs out.
+                    tracing::warn!(
+                        "simulator: trajectory of tick {} refused: {e}",
+                        traj.header.tick
+                    );
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Steps the world by `dt_ns` and says when the robot touched a body.
+fn step(world: &mut World, dt_ns: u64) {
+    let report = world.step(dt_ns);
+    if report.new_collisions > 0 {
+        let body = report
+            .first_contact
+            .and_then(|i| world.bodies().get(i))
+            .map_or("?", |b| b.name.as_str());
+        let p = report.robot.pose;
         tracing::warn!(
-            "simulator: resumed at tick {k} (t = {:.1} s)",
-            world.time_ns() as f64 * 1e-9
+            "simulator: collision with `{body}` at t = {:.1} s, robot at ({:.2}, {:.2}, {:.2})",
+            report.time_ns as f64 * 1e-9,
+            p.x,
+            p.y,
+            p.theta
         );
+    }
+}
+
+pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
+    let mut world = load_world(args)?;
+    let graph = Graph::load_dir(&args.config_dir).map_err(|e| NodeError::setup("simulator", e))?;
+    let mut awaited = Awaited::new();
+    let (bus, info) = Bus::join(&args.instance, NodeKind::Simulator, NodeArgs::JOIN_TIMEOUT)?;
+    let mode = TickMode::from_u32(info.mode).unwrap_or(TickMode::Lockstep);
+    let mut ports = open_ports(&bus)?;
+    let mut heartbeat = bus.heartbeat()?;
+    let (mut k, mut applied) = (0, Applied::default());
+    if args.restarted {
+        (k, applied) = resume(&bus, &mut world)?;
         heartbeat.send(NodeState::Running, "resumed")?;
     } else {
         heartbeat.send(NodeState::Ready, "")?;
-        // Wait for the supervisor's Start: every process is ready by then.
-        loop {
-            let hb = &mut heartbeat;
-            let (outcome, _) = ports.commands.wait_for(
-                Duration::from_millis(200),
-                |c| c.kind == SimCommandKind::Start as u32,
-                || {
-                    let _ = hb.tick(NodeState::Ready);
-                },
-            )?;
-            if outcome == WaitOutcome::Matched {
-                break;
-            }
-        }
+        wait_for_start(&ports, &mut heartbeat)?;
     }
 
     let dt_ns = args.dt_ns;
@@ -152,11 +234,10 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
         if signals::stop_requested() {
             return Err(aisle_bus::BusError::StopRequested.into());
         }
-        let tick_wall_ns = clock::monotonic_ns();
         let stamp = Stamp {
             stamp_ns: world.time_ns(),
             tick: k,
-            tick_wall_ns,
+            tick_wall_ns: clock::monotonic_ns(),
         };
         publish_sim_state(&mut ports.state, &world, stamp, applied)?;
         publish_state(&mut ports, &world, stamp)?;
@@ -172,75 +253,23 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
             t.seed = info.seed;
         })?;
         heartbeat.tick(NodeState::Running)?;
-
         match mode {
-            TickMode::Lockstep => wait_stages(
-                &ports,
-                &mut heartbeat,
-                &graph,
-                &mut awaited,
-                (k, stages),
-                args.recorded,
-            )?,
-            TickMode::Realtime => {
-                // Release the next tick on the wall clock.
-                let due = wall_start + (k + 1 - first_tick) * dt_ns;
-                loop {
-                    let now = clock::monotonic_ns();
-                    if now >= due {
-                        break;
-                    }
-                    if signals::stop_requested() {
-                        return Err(aisle_bus::BusError::StopRequested.into());
-                    }
-                    std::thread::sleep(Duration::from_nanos((due - now).min(20_000_000)));
-                }
+            TickMode::Lockstep => {
+                let tick = (k, stages);
+                wait_stages(
+                    &ports,
+                    &mut heartbeat,
+                    &graph,
+                    &mut awaited,
+                    tick,
+                    args.recorded,
+                )?
             }
+            TickMode::Realtime => sleep_until(wall_start + (k + 1 - first_tick) * dt_ns)?,
         }
-
         let timer = StageTimer::start();
-        while let Some(cmd) = ports.commands.receive()? {
-            // History replays commands to a restarted simulator: apply each once.
-            if cmd.command_id > applied.command_id {
-                applied.command_id = cmd.command_id;
-                apply_command(&mut world, &cmd);
-            }
-        }
-        if let Some(traj) = ports.trajectory.latest()? {
-            let id = (traj.header.tick, traj.header.seq);
-            if id != applied.trajectory {
-                applied.trajectory = id;
-                let n = (traj.len as usize).min(traj.commands.len());
-                if n == 0 {
-                    world.stop();
-                } else {
-                    let cmds = traj.commands[..n].iter().map(|c| (c.t, c.v, c.w));
-                    if let Err(e) = world.set_timeline_iter(traj.start_ns, cmds) {
-                        // A malformed timeline is refused; the watchdog stops the robot
-                        // when the previous one runs out.
-                        tracing::warn!(
-                            "simulator: trajectory of tick {} refused: {e}",
-                            traj.header.tick
-                        );
-                    }
-                }
-            }
-        }
-        let report = world.step(dt_ns);
-        if report.new_collisions > 0 {
-            let body = report
-                .first_contact
-                .and_then(|i| world.bodies().get(i))
-                .map_or("?", |b| b.name.as_str());
-            let p = report.robot.pose;
-            tracing::warn!(
-                "simulator: collision with `{body}` at t = {:.1} s, robot at ({:.2}, {:.2}, {:.2})",
-                report.time_ns as f64 * 1e-9,
-                p.x,
-                p.y,
-                p.theta
-            );
-        }
+        apply_inputs(&ports, &mut world, &mut applied)?;
+        step(&mut world, dt_ns);
         let compute_ns = timer.elapsed_ns();
         ports.done_out.publish(stamp, |d| {
             d.node = NodeKind::Simulator as u32;
