@@ -61,11 +61,11 @@ fn config_parsers(name: &str, bytes: &[u8]) {
             Path::new(name),
             &text(bytes),
         )),
-        "robot.toml" => drop(aisle_simulator::RobotConfig::parse(
+        "robot.toml" => drop(aisle_config::parse::<aisle_robot::RobotConfig>(
             Path::new(name),
             &text(bytes),
         )),
-        "lidar.toml" => drop(aisle_lidar::LidarConfig::parse(
+        "lidar.toml" => drop(aisle_config::parse::<aisle_robot::LidarConfig>(
             Path::new(name),
             &text(bytes),
         )),
@@ -108,8 +108,8 @@ proptest! {
 
     #[test]
     fn the_urdf_never_panics(bytes in mutated(shipped("jackal.urdf"))) {
-        let cfg = aisle_simulator::RobotConfig::default();
-        let _ = aisle_simulator::RobotModel::parse(Path::new("jackal.urdf"), &text(&bytes), &cfg);
+        let cfg = aisle_robot::RobotConfig::default();
+        let _ = aisle_robot::RobotModel::parse(Path::new("jackal.urdf"), &text(&bytes), &cfg);
     }
 
     #[test]

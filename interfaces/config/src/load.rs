@@ -1,5 +1,7 @@
-//! `load_toml`: read a file, deserialize it strictly, and locate errors by line.
+//! [`load`]: read a file, deserialize it strictly, validate it ([`Validate`]) and locate
+//! every error by file, line and key.
 
+use crate::InvalidKey;
 use serde::de::DeserializeOwned;
 use std::path::{Path, PathBuf};
 
@@ -48,7 +50,38 @@ impl ConfigError {
     }
 }
 
-/// Reads and deserializes `path`. Unknown keys are refused by the target types
+/// A config type's own check of its values: the first bad one, by dotted key.
+pub trait Validate {
+    fn validate(&self) -> Result<(), InvalidKey>;
+
+    /// Called by [`load`] after validation with the directory holding the file, so that
+    /// paths written in it can be taken relative to it. Most configs hold no paths.
+    fn relative_to(&mut self, _dir: &Path) {}
+}
+
+/// Reads, deserializes and validates `path`: the one way a config file is loaded.
+pub fn load<T: DeserializeOwned + Validate>(path: &Path) -> Result<T, ConfigError> {
+    let (mut value, text) = load_toml::<T>(path)?;
+    checked(&value, path, &text)?;
+    value.relative_to(path.parent().unwrap_or_else(|| Path::new(".")));
+    Ok(value)
+}
+
+/// As [`load`], from text already in memory (`path` names it in errors; relative paths
+/// in it are left as written).
+pub fn parse<T: DeserializeOwned + Validate>(path: &Path, text: &str) -> Result<T, ConfigError> {
+    let value = parse_toml::<T>(path, text)?;
+    checked(&value, path, text)?;
+    Ok(value)
+}
+
+fn checked<T: Validate>(value: &T, path: &Path, text: &str) -> Result<(), ConfigError> {
+    value
+        .validate()
+        .map_err(|e| ConfigError::invalid(path, text, &e.key, e.reason))
+}
+
+/// Reads and deserializes `path` without validating it. Unknown keys are refused by the target types
 /// (`deny_unknown_fields`), so a typo is an error, not a silent default.
 pub fn load_toml<T: DeserializeOwned>(path: &Path) -> Result<(T, String), ConfigError> {
     let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
@@ -140,7 +173,6 @@ mod tests {
     #[derive(Debug, Deserialize)]
     #[serde(deny_unknown_fields)]
     struct Small {
-        #[allow(dead_code)]
         rate: f64,
     }
 
@@ -168,6 +200,24 @@ mod tests {
             "[[body]]\nname = \"a\"\nsize = [1, 1, 1]\n[[body]]\nname = \"b\"\nsize = [-1, 1, 1]\n";
         let e = ConfigError::invalid(Path::new("w.toml"), text, "body[1].size", "negative");
         assert_eq!(e.to_string(), "w.toml:6: key `body[1].size`: negative");
+    }
+
+    impl Validate for Small {
+        fn validate(&self) -> Result<(), InvalidKey> {
+            crate::checks::positive("rate", self.rate)
+        }
+    }
+
+    #[test]
+    fn load_validates_and_locates_the_key() {
+        let e = parse::<Small>(Path::new("z.toml"), "# rate\n\nrate = -1.0\n")
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "z.toml:3: key `rate`: must be positive and finite, got -1"
+        );
+        assert!(parse::<Small>(Path::new("z.toml"), "rate = 1.0\n").is_ok());
     }
 
     #[test]

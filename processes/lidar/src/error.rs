@@ -1,11 +1,11 @@
 //! `LidarError`: everything the library refuses, as values (it never panics on input).
 
-use crate::config::InvalidConfig;
+use aisle_config::InvalidKey;
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum LidarError {
     #[error("invalid lidar config: {0}")]
-    Config(#[from] InvalidConfig),
+    Config(#[from] InvalidKey),
     #[error("output buffer holds {got} points, the scan has {expected} rays")]
     BufferSize { expected: usize, got: usize },
     #[error("sensor pose is not finite or its rotation is not orthonormal")]

@@ -7,8 +7,8 @@
 //! several times slower than `planar`; the simulator's robot stays level, so this is
 //! only used if a caller passes a tilted pose. Knows nothing of noise.
 
+use crate::SensorPose;
 use crate::pattern::ScanPattern;
-use crate::pose::SensorPose;
 use crate::world::World;
 
 /// An oriented box in the sensor frame.

@@ -15,11 +15,12 @@
 //! # use aisle_geometry::Pose2;
 //! # use std::path::Path;
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
-//! let cfg = LidarConfig::load(Path::new("config/lidar.toml"))?;
+//! let cfg = aisle_config::load::<LidarConfig>(Path::new("config/lidar.toml"))?;
 //! let scene = Scene::load(Path::new("config/warehouse.toml"))?;
 //! let mut lidar = Raycaster::new(&cfg, &scene)?;
-//! // The sensor in the robot's floor frame (here: the config's offset, link at the base).
-//! lidar.set_mount(SensorPose::from_xyz_rpy(cfg.mount.xyz, cfg.mount.rpy))?;
+//! // The sensor in the robot's floor frame, from robot.toml's [lidar_mount].
+//! let (robot, model) = aisle_robot::load_robot(Path::new("config/robot.toml"))?;
+//! lidar.set_mount(model.mount_in_base(&robot.lidar_mount)?)?;
 //! let rack = lidar.body_index("rack2b").expect("in the scene");
 //! let mut cloud = vec![[0.0f32; 3]; lidar.len()]; // or the loaned sample's slice
 //! for tick in 0..10u64 {
@@ -34,25 +35,24 @@
 //! The floor (z = 0) is a plane, hit only by rays that point down: with the seed's
 //! elevations (0..30 deg) and a level sensor ~0.2 m up, none does.
 //!
-//! The library modules know nothing of the bus or the URDF: the caller resolves the
-//! mounting link and passes the mount (or the sensor's world pose).
+//! The sensor's description ([`LidarConfig`], `lidar.toml`) and its mount (`robot.toml`,
+//! resolved through the URDF to a [`SensorPose`]) come from `aisle-robot`. The library
+//! modules know nothing of the bus or the URDF: the caller passes the mount (or the
+//! sensor's world pose).
 
-mod config;
 mod error;
 mod general;
 pub mod node;
 mod noise;
 mod pattern;
 mod planar;
-mod pose;
 mod raycaster;
 pub mod reference;
 mod world;
 
-pub use config::{InvalidConfig, LidarConfig, MountConfig, NoiseConfig};
+pub use aisle_robot::{LidarConfig, NoiseConfig, SensorPose};
 pub use error::LidarError;
 pub use pattern::ScanPattern;
-pub use pose::SensorPose;
 pub use raycaster::{Raycaster, ScanPath, ScanStats};
 pub use reference::ParryReference;
 

@@ -1,9 +1,9 @@
 //! The lidar process: on every tick, one organised scan from the robot's pose at that
 //! tick, written in place into the loaned `PointCloud` sample.
 //!
-//! The sensor's mounting comes from `lidar.toml` ([mount]: a URDF link and an offset),
-//! resolved through the robot's URDF. Movable bodies (the carried rack above all) are
-//! moved to their ground-truth poses before each scan: the lidar is part of the
+//! The sensor's mounting comes from `robot.toml` ([lidar_mount]: a URDF link and a
+//! pose), resolved through the robot's URDF by `aisle-robot`. Movable bodies (the
+//! carried rack above all) are moved to their ground-truth poses before each scan: the lidar is part of the
 //! simulation, so unlike the navigation processes it may read `WorldTruth`.
 //!
 //! Adapter only: the raycasting is [`crate::Raycaster`]; the loop around it is the
@@ -18,46 +18,6 @@ use aisle_messages::{
     topics,
 };
 use aisle_node::{Cycle, Io, RunContext, Stage};
-
-/// The sensor's pose in the robot's floor frame (the frame the raycaster's robot pose
-/// names): `base_link`'s height above the floor, the URDF link's pose in `base_link`,
-/// and the mount offset.
-pub fn mount_in_base(
-    cfg: &LidarConfig,
-    config_dir: &std::path::Path,
-) -> Result<SensorPose, NodeError> {
-    let robot_toml = config_dir.join("robot.toml");
-    let (_, model) =
-        aisle_simulator::load_robot(&robot_toml).map_err(|e| NodeError::setup("lidar", e))?;
-    let link = model.link_pose_in_base(&cfg.mount.link).ok_or_else(|| {
-        NodeError::setup(
-            format!(
-                "lidar: {}: mount.link",
-                config_dir.join("lidar.toml").display()
-            ),
-            format!(
-                "the URDF {} has no link `{}`",
-                model.file().display(),
-                cfg.mount.link
-            ),
-        )
-    })?;
-    let r = link.rotation.to_rotation_matrix();
-    let m = r.matrix();
-    let link_pose = SensorPose {
-        position: [
-            link.translation.x,
-            link.translation.y,
-            link.translation.z + model.base_height(),
-        ],
-        rotation: [
-            [m[(0, 0)], m[(0, 1)], m[(0, 2)]],
-            [m[(1, 0)], m[(1, 1)], m[(1, 2)]],
-            [m[(2, 0)], m[(2, 1)], m[(2, 2)]],
-        ],
-    };
-    Ok(link_pose.compose(&SensorPose::from_xyz_rpy(cfg.mount.xyz, cfg.mount.rpy)))
-}
 
 /// Roll, pitch, yaw (URDF convention) of a rotation matrix.
 fn rpy_of(r: &[[f64; 3]; 3]) -> [f64; 3] {
@@ -87,10 +47,15 @@ impl LidarStage {
         lidar_off: bool,
     ) -> Result<LidarStage, NodeError> {
         let lidar_toml = config_dir.join("lidar.toml");
-        let cfg = LidarConfig::load(&lidar_toml).map_err(|e| NodeError::setup("lidar", e))?;
+        let cfg = aisle_config::load::<LidarConfig>(&lidar_toml)
+            .map_err(|e| NodeError::setup("lidar", e))?;
         let scene = Scene::load(&config_dir.join("warehouse.toml"))
             .map_err(|e| NodeError::setup("lidar", e))?;
-        let mount = mount_in_base(&cfg, config_dir)?;
+        let (robot_cfg, model) = aisle_robot::load_robot(&config_dir.join("robot.toml"))
+            .map_err(|e| NodeError::setup("lidar", e))?;
+        let mount = model
+            .mount_in_base(&robot_cfg.lidar_mount)
+            .map_err(|e| NodeError::setup("lidar", e))?;
         let raycaster = Raycaster::new(&cfg, &scene).map_err(|e| NodeError::setup("lidar", e))?;
         let (rows, cols) = (raycaster.rows(), raycaster.columns());
         if rows > MAX_CLOUD_ROWS || cols > MAX_CLOUD_COLS {
@@ -237,16 +202,5 @@ mod tests {
         assert_eq!((pose.x, pose.y, pose.theta), (1.0, 2.0, 0.5));
         assert_eq!(tick_no, 3);
         assert!(returns > 100, "{returns} returns in the warehouse");
-    }
-
-    #[test]
-    fn the_seed_mount_is_on_the_front_fender() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config");
-        let cfg = LidarConfig::load(&dir.join("lidar.toml")).unwrap();
-        let m = mount_in_base(&cfg, &dir).unwrap();
-        // front_fender_link sits at the chassis origin; the mount adds (0.25, 0.1, 0.2).
-        assert!((m.position[0] - 0.25).abs() < 1e-9, "{:?}", m.position);
-        assert!((m.position[1] - 0.1).abs() < 1e-9, "{:?}", m.position);
-        assert!(m.position[2] >= 0.2, "{:?}", m.position);
     }
 }

@@ -5,8 +5,9 @@
 //! (r, c) in the sensor frame (x forward, y left, z up) is
 //! `(cos e cos a, cos e sin a, sin e)`. This module knows angles only: no scene, no pose.
 
-use crate::config::LidarConfig;
+use crate::LidarConfig;
 use crate::error::LidarError;
+use aisle_config::Validate;
 
 /// Per-channel trigonometry in the precision the raycasters use.
 #[derive(Debug, Clone)]

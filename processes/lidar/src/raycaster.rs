@@ -6,13 +6,13 @@
 //! Knows nothing of the bus, the URDF or the clock: the caller passes the sensor pose
 //! and the scan index.
 
-use crate::config::LidarConfig;
+use crate::LidarConfig;
+use crate::SensorPose;
 use crate::error::LidarError;
 use crate::general::GeneralCaster;
 use crate::noise;
 use crate::pattern::ScanPattern;
 use crate::planar::PlanarCaster;
-use crate::pose::SensorPose;
 use crate::world::World;
 use aisle_config::scene::Scene;
 use aisle_geometry::Pose2;
@@ -49,9 +49,9 @@ pub struct Raycaster {
 
 impl Raycaster {
     /// Validates `config` and takes every body of `scene` (static and movable), in scene
-    /// order. The mount starts as `config.mount`'s offset taken in the robot's floor
-    /// frame, which is right when the mounting link sits at the base origin on the
-    /// floor; otherwise resolve the link and call [`Raycaster::set_mount`].
+    /// order. The mount starts at the robot's floor-frame origin: resolve the real one
+    /// (`aisle_robot::RobotModel::mount_in_base`) and call [`Raycaster::set_mount`]
+    /// before using [`Raycaster::scan_robot`].
     pub fn new(config: &LidarConfig, scene: &Scene) -> Result<Raycaster, LidarError> {
         let pattern = ScanPattern::new(config)?;
         let world = World::from_scene(scene)?;
@@ -64,7 +64,7 @@ impl Raycaster {
             hit_floor: config.hit_floor,
             noise: None,
             normals: noise::NormalTable::new(),
-            mount: SensorPose::from_xyz_rpy(config.mount.xyz, config.mount.rpy),
+            mount: SensorPose::IDENTITY,
         };
         r.set_noise(config.noise.enabled, config.noise.sigma, config.noise.seed)?;
         Ok(r)
@@ -73,10 +73,10 @@ impl Raycaster {
     /// Turns the range noise on or off, or changes its sigma (metres) and seed.
     pub fn set_noise(&mut self, enabled: bool, sigma: f64, seed: u64) -> Result<(), LidarError> {
         if !(sigma.is_finite() && sigma >= 0.0) {
-            return Err(crate::config::InvalidConfig {
-                key: "noise.sigma",
-                reason: format!("must be >= 0, got {sigma}"),
-            }
+            return Err(aisle_config::InvalidKey::new(
+                "noise.sigma",
+                format!("must be >= 0, got {sigma}"),
+            )
             .into());
         }
         self.noise = (enabled && sigma > 0.0).then_some((sigma as f32, seed));

@@ -7,10 +7,10 @@
 //! is rebuilt) and is not meant for the node. parry3d 0.31 works in glam f32 types; the
 //! conversions stay in this file.
 
-use crate::config::LidarConfig;
+use crate::LidarConfig;
+use crate::SensorPose;
 use crate::error::LidarError;
 use crate::pattern::ScanPattern;
-use crate::pose::SensorPose;
 use crate::world::{World, WorldBox};
 use aisle_config::scene::Scene;
 use aisle_geometry::Pose2;

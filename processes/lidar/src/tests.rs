@@ -432,11 +432,10 @@ fn bad_inputs_are_errors_not_panics() {
 fn scan_robot_uses_the_mount_and_the_floor_frame() {
     let scene = warehouse();
     let mut r = Raycaster::new(&LidarConfig::default(), &scene).unwrap();
-    // The default mount is the config's offset: (0.25, 0.1, 0.2) above the floor frame.
-    assert_eq!(
-        *r.mount(),
-        SensorPose::from_xyz_rpy([0.25, 0.1, 0.2], [0.0; 3])
-    );
+    // Until a mount is set the sensor sits at the floor frame's origin.
+    assert_eq!(*r.mount(), SensorPose::IDENTITY);
+    r.set_mount(SensorPose::from_xyz_rpy([0.25, 0.1, 0.2], [0.0; 3]))
+        .unwrap();
     let robot = Pose2::new(2.0, 11.0, FRAC_PI_2);
     let s = r.sensor_pose(&robot);
     assert!((s.position[0] - 1.9).abs() < 1e-12 && (s.position[1] - 11.25).abs() < 1e-12);

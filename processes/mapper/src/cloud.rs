@@ -1,5 +1,5 @@
 //! What the obstacle layer reads: an organised point cloud, the sensor's 3D pose and the
-//! lidar's beam pattern.
+//! lidar's beam pattern (defined by `aisle-robot`, checked here).
 //!
 //! Sensor frame: x forward, y left, z up. Beam (row r, column c) points along
 //! `(cos e cos a, cos e sin a, sin e)` with elevation `e` of row r and azimuth `a` of
@@ -8,6 +8,9 @@
 
 use crate::error::MapError;
 use aisle_geometry::Pose2;
+/// The lidar's beam pattern is the robot's description (`aisle-robot`); re-exported so
+/// the mapper's API stays in one place.
+pub use aisle_robot::BeamGeometry;
 
 /// Most points one cloud may have (64 rows x 2048 columns), the capacity of the point
 /// cloud message; kept here so the algorithm does not depend on the message crate.
@@ -36,84 +39,28 @@ impl<'a> OrganizedCloud<'a> {
     }
 }
 
-/// The lidar's scan pattern: evenly spaced channels, first and last angle included.
-/// `first > last` is allowed (a lidar that orders its rows top-down).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct BeamGeometry {
-    pub rows: usize,
-    pub cols: usize,
-    /// Elevation of row 0 and of the last row, degrees.
-    pub elevation_first_deg: f64,
-    pub elevation_last_deg: f64,
-    /// Azimuth of column 0 and of the last column, degrees.
-    pub azimuth_first_deg: f64,
-    pub azimuth_last_deg: f64,
-}
-
-impl Default for BeamGeometry {
-    /// The seed's lidar: elevation 0..30 deg at 1 deg, azimuth -120..120 deg at 0.2 deg.
-    fn default() -> Self {
-        Self {
-            rows: 31,
-            cols: 1201,
-            elevation_first_deg: 0.0,
-            elevation_last_deg: 30.0,
-            azimuth_first_deg: -120.0,
-            azimuth_last_deg: 120.0,
-        }
+/// The checks the obstacle layer needs of a beam pattern: finite angles, and at least
+/// one and at most [`MAX_CLOUD_POINTS`] beams.
+pub(crate) fn check_beams(g: &BeamGeometry) -> Result<(), MapError> {
+    let angles = [
+        g.elevation_first_deg,
+        g.elevation_last_deg,
+        g.azimuth_first_deg,
+        g.azimuth_last_deg,
+    ];
+    if !angles.iter().all(|a| a.is_finite()) {
+        return Err(MapError::NotFinite {
+            what: "beam geometry angle",
+        });
     }
-}
-
-/// Angle of channel `i` of `n` spread evenly from `first` to `last` (degrees in, radians out).
-fn channel(first: f64, last: f64, n: usize, i: usize) -> f64 {
-    let t = if n > 1 {
-        i as f64 / (n - 1) as f64
-    } else {
-        0.0
-    };
-    (first + t * (last - first)).to_radians()
-}
-
-impl BeamGeometry {
-    pub fn elevation(&self, row: usize) -> f64 {
-        channel(
-            self.elevation_first_deg,
-            self.elevation_last_deg,
-            self.rows,
-            row,
-        )
-    }
-
-    pub fn azimuth(&self, col: usize) -> f64 {
-        channel(
-            self.azimuth_first_deg,
-            self.azimuth_last_deg,
-            self.cols,
-            col,
-        )
-    }
-
-    pub fn validate(&self) -> Result<(), MapError> {
-        let angles = [
-            self.elevation_first_deg,
-            self.elevation_last_deg,
-            self.azimuth_first_deg,
-            self.azimuth_last_deg,
-        ];
-        if !angles.iter().all(|a| a.is_finite()) {
-            return Err(MapError::NotFinite {
-                what: "beam geometry angle",
-            });
-        }
-        let max = MAX_CLOUD_POINTS;
-        match self.rows.checked_mul(self.cols) {
-            Some(n) if n > 0 && n <= max => Ok(()),
-            _ => Err(MapError::TooMany {
-                what: "beam channels (rows x cols, at least 1)",
-                got: self.rows.saturating_mul(self.cols),
-                max,
-            }),
-        }
+    let max = MAX_CLOUD_POINTS;
+    match g.rows.checked_mul(g.cols) {
+        Some(n) if n > 0 && n <= max => Ok(()),
+        _ => Err(MapError::TooMany {
+            what: "beam channels (rows x cols, at least 1)",
+            got: g.rows.saturating_mul(g.cols),
+            max,
+        }),
     }
 }
 
@@ -176,7 +123,7 @@ mod tests {
     #[test]
     fn seed_geometry_channels() {
         let g = BeamGeometry::default();
-        g.validate().unwrap();
+        check_beams(&g).unwrap();
         assert!((g.azimuth(0) + 120f64.to_radians()).abs() < 1e-12);
         assert!((g.azimuth(600)).abs() < 1e-12);
         assert!((g.azimuth(1200) - 120f64.to_radians()).abs() < 1e-12);

@@ -24,21 +24,10 @@ use std::time::Duration;
 /// return, so it needs their directions).
 fn beams(config_dir: &std::path::Path) -> Result<BeamGeometry, NodeError> {
     let path = config_dir.join("lidar.toml");
-    let l = aisle_lidar::LidarConfig::load(&path).map_err(|e| NodeError::setup("mapper", e))?;
-    let rows = l
-        .rows()
-        .map_err(|e| NodeError::setup(format!("mapper: {}", path.display()), e))?;
-    let cols = l
-        .columns()
-        .map_err(|e| NodeError::setup(format!("mapper: {}", path.display()), e))?;
-    Ok(BeamGeometry {
-        rows,
-        cols,
-        elevation_first_deg: l.elevation_min_deg,
-        elevation_last_deg: l.elevation_min_deg + (rows - 1) as f64 * l.elevation_step_deg,
-        azimuth_first_deg: l.azimuth_min_deg,
-        azimuth_last_deg: l.azimuth_min_deg + (cols - 1) as f64 * l.azimuth_step_deg,
-    })
+    let l = aisle_config::load::<aisle_robot::LidarConfig>(&path)
+        .map_err(|e| NodeError::setup("mapper", e))?;
+    l.beams()
+        .map_err(|e| NodeError::setup(format!("mapper: {}", path.display()), e))
 }
 
 fn zone(r: &RectMsg) -> Option<IgnoreZone> {
@@ -103,7 +92,7 @@ impl MapperStage {
                 ),
             ));
         }
-        let robot = aisle_simulator::RobotConfig::load(&config_dir.join("robot.toml"))
+        let robot = aisle_config::load::<aisle_robot::RobotConfig>(&config_dir.join("robot.toml"))
             .map_err(|e| NodeError::setup("mapper", e))?;
         let robot_footprint = robot.footprint.alone.footprint();
         let beams = beams(config_dir)?;

@@ -126,7 +126,7 @@ pub struct ObstacleLayer {
 
 impl ObstacleLayer {
     pub fn new(cfg: &ObstacleConfig, beams: BeamGeometry) -> Result<Self, MapError> {
-        beams.validate()?;
+        crate::cloud::check_beams(&beams)?;
         let el: Vec<f64> = (0..beams.rows).map(|r| beams.elevation(r)).collect();
         let az: Vec<f64> = (0..beams.cols).map(|c| beams.azimuth(c)).collect();
         Ok(Self {

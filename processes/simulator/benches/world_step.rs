@@ -3,7 +3,8 @@
 
 use aisle_config::scene::Scene;
 use aisle_geometry::Pose2;
-use aisle_simulator::{DEFAULT_DT_NS, World, load_robot};
+use aisle_robot::load_robot;
+use aisle_simulator::{DEFAULT_DT_NS, World};
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 use std::path::Path;

@@ -1,9 +1,7 @@
 //! Errors of the simulator library.
 
-use crate::config::InvalidKey;
-use crate::model::ModelError;
 use crate::timeline::TimelineError;
-use aisle_config::ConfigError;
+use aisle_config::InvalidKey;
 use aisle_geometry::Pose2;
 
 /// Something the world refuses to do; the world is unchanged when one is returned.
@@ -31,13 +29,4 @@ pub enum SimError {
     Timeline(#[from] TimelineError),
     #[error("snapshot does not fit this world: {reason}")]
     Snapshot { reason: String },
-}
-
-/// Loading `robot.toml` and the URDF it names.
-#[derive(Debug, thiserror::Error)]
-pub enum LoadError {
-    #[error(transparent)]
-    Config(#[from] ConfigError),
-    #[error(transparent)]
-    Model(#[from] ModelError),
 }

@@ -28,8 +28,8 @@
 //!
 //! Knows nothing of time stamps, commands or the world.
 
-use crate::config::KinematicsConfig;
 use aisle_geometry::{Pose2, wrap_angle};
+use aisle_robot::KinematicsConfig;
 
 /// Wheel angular speeds, rad/s (positive drives the robot forward).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -63,7 +63,7 @@ pub struct DiffDrive {
 }
 
 impl DiffDrive {
-    /// The numbers are validated by [`RobotConfig::validate`](crate::RobotConfig::validate).
+    /// The numbers are validated by `RobotConfig`'s `Validate` impl (aisle-robot).
     pub fn new(cfg: &KinematicsConfig) -> Self {
         Self {
             half_track: 0.5 * cfg.track_width,

@@ -70,7 +70,7 @@ fn load_world(args: &NodeArgs) -> Result<World, NodeError> {
     let robot_toml = args.config_dir.join("robot.toml");
     let scene_path = args.config_dir.join("warehouse.toml");
     let (cfg, model) =
-        crate::load_robot(&robot_toml).map_err(|e| NodeError::setup("simulator", e))?;
+        aisle_robot::load_robot(&robot_toml).map_err(|e| NodeError::setup("simulator", e))?;
     let scene = Scene::load(&scene_path).map_err(|e| NodeError::setup("simulator", e))?;
     let start = Pose2::new(args.start[0], args.start[1], args.start[2]);
     let world = World::new_at(&scene, &model, &cfg, start)

@@ -69,25 +69,8 @@ pub fn check_dir(dir: &Path) -> Result<Vec<PathBuf>, String> {
     }
     let files = ConfigFiles::in_dir(dir);
     let scene = Scene::load(&files.scene).map_err(|e| e.to_string())?;
-    let (robot, model) = aisle_simulator::load_robot(&files.robot).map_err(|e| e.to_string())?;
-    let lidar = aisle_lidar::LidarConfig::load(&files.lidar).map_err(|e| e.to_string())?;
-    // The lidar node mounts the sensor from lidar.toml; the robot model names the same
-    // mount. Two files must not tell two stories.
-    if lidar.mount.link != robot.lidar_mount.link
-        || lidar.mount.xyz != robot.lidar_mount.offset
-        || lidar.mount.rpy != [0.0; 3]
-    {
-        return Err(format!(
-            "{}: mount (link `{}`, xyz {:?}, rpy {:?}) differs from {}: lidar_mount (link `{}`, offset {:?}, no rotation)",
-            files.lidar.display(),
-            lidar.mount.link,
-            lidar.mount.xyz,
-            lidar.mount.rpy,
-            files.robot.display(),
-            robot.lidar_mount.link,
-            robot.lidar_mount.offset
-        ));
-    }
+    let (_, model) = aisle_robot::load_robot(&files.robot).map_err(|e| e.to_string())?;
+    aisle_config::load::<aisle_robot::LidarConfig>(&files.lidar).map_err(|e| e.to_string())?;
     let map_cfg = aisle_mapper::MapConfig::load(&files.mapper).map_err(|e| e.to_string())?;
     aisle_mapper::load_static_map(&map_cfg, &files.scene)
         .map_err(|e| format!("{}: {e}", files.mapper.display()))?;

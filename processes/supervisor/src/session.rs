@@ -131,7 +131,7 @@ fn load(opts: &RunOptions) -> anyhow::Result<Loaded> {
     let mission_path = opts.mission.clone().unwrap_or(files.mission.clone());
     let mission = MissionConfig::load(&mission_path, &scene)?;
     let budgets = Budgets::load(&files.budgets)?;
-    let robot = aisle_simulator::RobotConfig::load(&files.robot)?;
+    let robot = aisle_config::load::<aisle_robot::RobotConfig>(&files.robot)?;
     let f = &robot.footprint;
     let footprints = Footprints {
         alone: f.alone.footprint(),

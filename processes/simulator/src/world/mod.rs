@@ -25,13 +25,13 @@ mod tests;
 pub use snapshot::WorldSnapshot;
 
 use crate::collision::{Bound, Prism};
-use crate::config::RobotConfig;
 use crate::error::SimError;
 use crate::kinematics::{Applied, DiffDrive, Twist, WheelSpeeds, integrate};
-use crate::model::RobotModel;
 use crate::timeline::CommandTimeline;
+use aisle_config::Validate;
 use aisle_config::scene::{Body, Scene};
 use aisle_geometry::Pose2;
+use aisle_robot::{RobotConfig, RobotModel};
 
 /// The sim rate of the seed: 10 Hz.
 pub const DEFAULT_DT_NS: u64 = 100_000_000;

@@ -1,6 +1,5 @@
 use super::*;
-use crate::config::RobotConfig;
-use crate::model::RobotModel;
+use aisle_robot::{RobotConfig, RobotModel};
 use std::f64::consts::FRAC_PI_2;
 use std::path::{Path, PathBuf};
 
@@ -11,7 +10,7 @@ fn root() -> PathBuf {
 }
 
 fn robot() -> (RobotConfig, RobotModel) {
-    crate::load_robot(&root().join("config/robot.toml")).unwrap()
+    aisle_robot::load_robot(&root().join("config/robot.toml")).unwrap()
 }
 
 fn warehouse() -> Scene {

@@ -1,7 +1,9 @@
-//! `SensorPose`: where the sensor is in the world (position and full 3D rotation).
+//! `SensorPose`: a sensor frame as a rigid transform (position and full 3D rotation),
+//! in the robot's floor frame (a mount, see [`crate::RobotModel::mount_in_base`]) or in
+//! the world (the mount on a robot pose, [`SensorPose::on_robot`]).
 //!
-//! The library takes this pose; finding it (robot pose, URDF link, mounting offset) is
-//! the node's job, helped by `from_xyz_rpy` and `compose`. Knows nothing of the scene.
+//! Plain row-major arithmetic, so the lidar's raycaster can use it directly. Knows
+//! nothing of the scene or the URDF.
 
 use aisle_geometry::Pose2;
 

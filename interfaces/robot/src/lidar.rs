@@ -1,12 +1,13 @@
-//! `LidarConfig`: the scan pattern, range, noise and mounting read from `config/lidar.toml`.
+//! `LidarConfig`: the sensor itself (scan pattern, range, rate, noise) from
+//! `config/lidar.toml`, and the [`BeamGeometry`] its pattern gives.
 //!
 //! Defaults are the seed's numbers (SCENARIO.md). `validate` names the offending key.
-//! This module knows nothing of the scene, the raycaster or the URDF: the mounting link
-//! and offset are only carried here for the node, which resolves them to a sensor pose.
+//! Knows nothing of the scene or of raycasting; where the sensor sits on the robot is
+//! not here but in `robot.toml` (`lidar_mount`, see [`crate::MountConfig`]).
 
-use aisle_config::ConfigError;
+use crate::BeamGeometry;
+use aisle_config::{InvalidKey, Validate};
 use serde::Deserialize;
-use std::path::Path;
 
 /// Zero-mean Gaussian range noise, drawn from a seeded stream (see `noise`).
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -24,27 +25,6 @@ impl Default for NoiseConfig {
             enabled: true,
             sigma: 0.002,
             seed: 1,
-        }
-    }
-}
-
-/// Where the sensor sits on the robot: a URDF link plus an offset from it.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct MountConfig {
-    pub link: String,
-    /// Offset of the sensor origin in the link frame, metres.
-    pub xyz: [f64; 3],
-    /// Roll, pitch, yaw of the sensor in the link frame, radians.
-    pub rpy: [f64; 3],
-}
-
-impl Default for MountConfig {
-    fn default() -> Self {
-        Self {
-            link: "front_fender_link".to_string(),
-            xyz: [0.25, 0.1, 0.2],
-            rpy: [0.0, 0.0, 0.0],
         }
     }
 }
@@ -70,7 +50,6 @@ pub struct LidarConfig {
     /// negative elevations.
     pub hit_floor: bool,
     pub noise: NoiseConfig,
-    pub mount: MountConfig,
 }
 
 impl Default for LidarConfig {
@@ -87,24 +66,12 @@ impl Default for LidarConfig {
             organized: true,
             hit_floor: true,
             noise: NoiseConfig::default(),
-            mount: MountConfig::default(),
         }
     }
 }
 
-/// A value that parsed but cannot be used; `key` is the dotted TOML key.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("key `{key}`: {reason}")]
-pub struct InvalidConfig {
-    pub key: &'static str,
-    pub reason: String,
-}
-
-fn invalid(key: &'static str, reason: impl Into<String>) -> InvalidConfig {
-    InvalidConfig {
-        key,
-        reason: reason.into(),
-    }
+fn invalid(key: &str, reason: impl Into<String>) -> InvalidKey {
+    InvalidKey::new(key, reason)
 }
 
 /// Rays beyond this count would make the organised cloud unreasonably large for one
@@ -112,12 +79,7 @@ fn invalid(key: &'static str, reason: impl Into<String>) -> InvalidConfig {
 const MAX_CHANNELS: usize = 100_000;
 
 /// Number of channels of a `[min, max]` span sampled every `step`, both ends included.
-fn channels(
-    min: f64,
-    max: f64,
-    step: f64,
-    keys: [&'static str; 3],
-) -> Result<usize, InvalidConfig> {
+fn channels(min: f64, max: f64, step: f64, keys: [&'static str; 3]) -> Result<usize, InvalidKey> {
     let [kmin, kmax, kstep] = keys;
     if !min.is_finite() {
         return Err(invalid(kmin, format!("must be finite, got {min}")));
@@ -150,8 +112,24 @@ fn channels(
 }
 
 impl LidarConfig {
+    /// The beam directions a consumer of the cloud needs (the mapper clears along rays
+    /// without a return): channel counts and first and last angles.
+    pub fn beams(&self) -> Result<BeamGeometry, InvalidKey> {
+        let rows = self.rows()?;
+        let cols = self.columns()?;
+        Ok(BeamGeometry {
+            rows,
+            cols,
+            elevation_first_deg: self.elevation_min_deg,
+            elevation_last_deg: self.elevation_min_deg
+                + (rows - 1) as f64 * self.elevation_step_deg,
+            azimuth_first_deg: self.azimuth_min_deg,
+            azimuth_last_deg: self.azimuth_min_deg + (cols - 1) as f64 * self.azimuth_step_deg,
+        })
+    }
+
     /// Number of azimuth channels (columns). Call after `validate`.
-    pub fn columns(&self) -> Result<usize, InvalidConfig> {
+    pub fn columns(&self) -> Result<usize, InvalidKey> {
         channels(
             self.azimuth_min_deg,
             self.azimuth_max_deg,
@@ -161,7 +139,7 @@ impl LidarConfig {
     }
 
     /// Number of elevation channels (rows).
-    pub fn rows(&self) -> Result<usize, InvalidConfig> {
+    pub fn rows(&self) -> Result<usize, InvalidKey> {
         channels(
             self.elevation_min_deg,
             self.elevation_max_deg,
@@ -173,8 +151,10 @@ impl LidarConfig {
             ],
         )
     }
+}
 
-    pub fn validate(&self) -> Result<(), InvalidConfig> {
+impl Validate for LidarConfig {
+    fn validate(&self) -> Result<(), InvalidKey> {
         if !(self.max_range.is_finite() && self.max_range > 0.0) {
             return Err(invalid(
                 "max_range",
@@ -213,58 +193,32 @@ impl LidarConfig {
                 format!("must be >= 0, got {}", self.noise.sigma),
             ));
         }
-        if self.mount.link.is_empty() {
-            return Err(invalid("mount.link", "empty link name"));
-        }
-        if !self.mount.xyz.iter().all(|v| v.is_finite()) {
-            return Err(invalid("mount.xyz", "not finite"));
-        }
-        if !self.mount.rpy.iter().all(|v| v.is_finite()) {
-            return Err(invalid("mount.rpy", "not finite"));
-        }
         Ok(())
-    }
-
-    /// Parses `text` (as if read from `path`) and validates it.
-    pub fn parse(path: &Path, text: &str) -> Result<LidarConfig, ConfigError> {
-        let cfg: LidarConfig = aisle_config::parse_toml(path, text)?;
-        cfg.validate()
-            .map_err(|e| ConfigError::invalid(path, text, e.key, e.reason))?;
-        Ok(cfg)
-    }
-
-    /// Reads, parses and validates `path`.
-    pub fn load(path: &Path) -> Result<LidarConfig, ConfigError> {
-        let (cfg, text): (LidarConfig, String) = aisle_config::load_toml(path)?;
-        cfg.validate()
-            .map_err(|e| ConfigError::invalid(path, &text, e.key, e.reason))?;
-        Ok(cfg)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn shipped() -> std::path::PathBuf {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/lidar.toml")
-    }
+    use aisle_config::{load, parse, testing::shipped};
+    use std::path::Path;
 
     #[test]
     fn shipped_file_equals_the_seed_defaults() {
-        let cfg = LidarConfig::load(&shipped()).unwrap();
+        let cfg = load::<LidarConfig>(&shipped("lidar.toml")).unwrap();
         assert_eq!(cfg, LidarConfig::default());
         assert_eq!(cfg.columns().unwrap(), 1201);
         assert_eq!(cfg.rows().unwrap(), 31);
+        assert_eq!(cfg.beams().unwrap(), BeamGeometry::default());
     }
 
     #[test]
     fn unknown_key_is_named() {
-        let e = LidarConfig::parse(Path::new("l.toml"), "max_range = 12.0\nmax_rnage = 3\n")
+        let e = parse::<LidarConfig>(Path::new("l.toml"), "max_range = 12.0\nmax_rnage = 3\n")
             .unwrap_err()
             .to_string();
         assert!(e.starts_with("l.toml:2:") && e.contains("max_rnage"), "{e}");
-        let e = LidarConfig::parse(Path::new("l.toml"), "[noise]\nsigmaa = 0.1\n")
+        let e = parse::<LidarConfig>(Path::new("l.toml"), "[noise]\nsigmaa = 0.1\n")
             .unwrap_err()
             .to_string();
         assert!(e.contains("sigmaa"), "{e}");
@@ -272,7 +226,7 @@ mod tests {
 
     #[test]
     fn negative_range_is_named() {
-        let e = LidarConfig::parse(Path::new("l.toml"), "rate_hz = 10.0\nmax_range = -1.0\n")
+        let e = parse::<LidarConfig>(Path::new("l.toml"), "rate_hz = 10.0\nmax_range = -1.0\n")
             .unwrap_err()
             .to_string();
         assert!(e.contains("l.toml:2:") && e.contains("`max_range`"), "{e}");
@@ -280,14 +234,14 @@ mod tests {
 
     #[test]
     fn step_that_does_not_divide_the_span_is_named() {
-        let e = LidarConfig::parse(Path::new("l.toml"), "azimuth_step_deg = 0.7\n")
+        let e = parse::<LidarConfig>(Path::new("l.toml"), "azimuth_step_deg = 0.7\n")
             .unwrap_err()
             .to_string();
         assert!(
             e.contains("`azimuth_step_deg`") && e.contains("divide"),
             "{e}"
         );
-        let e = LidarConfig::parse(Path::new("l.toml"), "elevation_step_deg = 0.0\n")
+        let e = parse::<LidarConfig>(Path::new("l.toml"), "elevation_step_deg = 0.0\n")
             .unwrap_err()
             .to_string();
         assert!(e.contains("`elevation_step_deg`"), "{e}");
@@ -303,10 +257,9 @@ mod tests {
             ),
             ("rate_hz = 0.0", "rate_hz"),
             ("[noise]\nsigma = -0.1", "noise.sigma"),
-            ("[mount]\nlink = \"\"", "mount.link"),
         ];
         for (text, key) in cases {
-            let e = LidarConfig::parse(Path::new("l.toml"), text)
+            let e = parse::<LidarConfig>(Path::new("l.toml"), text)
                 .unwrap_err()
                 .to_string();
             assert!(e.contains(&format!("`{key}`")), "{text}: {e}");

@@ -1,23 +1,16 @@
-//! `config/robot.toml`: the robot's numbers (kinematics, footprints, mounting links,
-//! watchdog, spawn pose) with the seed's values as defaults.
+//! `config/robot.toml`: the robot's numbers (kinematics, footprints, sensor and carry
+//! mounts, watchdog, spawn pose) with the seed's values as defaults.
 //!
 //! Knows nothing of the URDF's content (only its file name) nor of the world: it
-//! parses and validates numbers. Every key is optional (missing keys take the seed's
-//! value) but unknown keys are refused, so a typo is an error rather than a silent
-//! default.
+//! parses and validates numbers (load it with `aisle_config::load::<RobotConfig>`).
+//! Every key is optional (missing keys take the seed's value) but unknown keys are
+//! refused, so a typo is an error rather than a silent default.
 
-use aisle_config::ConfigError;
+use aisle_config::checks::{finite, non_empty, non_negative, positive};
+use aisle_config::{InvalidKey, Validate};
 use aisle_geometry::{Footprint, Pose2};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
-
-/// A value that parsed but makes no sense, with the dotted key that holds it.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("key `{key}`: {reason}")]
-pub struct InvalidKey {
-    pub key: String,
-    pub reason: String,
-}
 
 /// Differential-drive numbers used for motion (the seed's, not the URDF's).
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
@@ -94,19 +87,27 @@ impl Default for BodyConfig {
     }
 }
 
-/// Where the lidar sits: a URDF link plus a fixed offset in that link's frame.
+/// Where a sensor sits: a URDF link plus a fixed pose in that link's frame.
+///
+/// The lidar's mount is stated here, in the robot's description, and nowhere else:
+/// where a sensor is bolted on is a fact about the robot (the simulator, the lidar and
+/// any tool drawing the robot read it), while `lidar.toml` describes the sensor itself.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
-pub struct LidarMountConfig {
+pub struct MountConfig {
     pub link: String,
+    /// Offset of the sensor origin in the link frame, metres.
     pub offset: [f64; 3],
+    /// Roll, pitch, yaw of the sensor in the link frame, radians (URDF convention).
+    pub rpy: [f64; 3],
 }
 
-impl Default for LidarMountConfig {
+impl Default for MountConfig {
     fn default() -> Self {
         Self {
             link: "front_fender_link".into(),
             offset: [0.25, 0.1, 0.2],
+            rpy: [0.0, 0.0, 0.0],
         }
     }
 }
@@ -170,7 +171,7 @@ pub struct RobotConfig {
     pub kinematics: KinematicsConfig,
     pub body: BodyConfig,
     pub footprint: FootprintConfig,
-    pub lidar_mount: LidarMountConfig,
+    pub lidar_mount: MountConfig,
     pub carry: CarryConfig,
     pub watchdog: WatchdogConfig,
     pub start: StartConfig,
@@ -183,7 +184,7 @@ impl Default for RobotConfig {
             kinematics: KinematicsConfig::default(),
             body: BodyConfig::default(),
             footprint: FootprintConfig::default(),
-            lidar_mount: LidarMountConfig::default(),
+            lidar_mount: MountConfig::default(),
             carry: CarryConfig::default(),
             watchdog: WatchdogConfig::default(),
             start: StartConfig::default(),
@@ -191,71 +192,9 @@ impl Default for RobotConfig {
     }
 }
 
-fn positive(key: &str, v: f64) -> Result<(), InvalidKey> {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err(InvalidKey {
-            key: key.into(),
-            reason: format!("must be positive and finite, got {v}"),
-        })
-    }
-}
-
-fn non_negative(key: &str, v: f64) -> Result<(), InvalidKey> {
-    if v.is_finite() && v >= 0.0 {
-        Ok(())
-    } else {
-        Err(InvalidKey {
-            key: key.into(),
-            reason: format!("must be >= 0 and finite, got {v}"),
-        })
-    }
-}
-
-fn finite(key: &str, v: &[f64]) -> Result<(), InvalidKey> {
-    if v.iter().all(|x| x.is_finite()) {
-        Ok(())
-    } else {
-        Err(InvalidKey {
-            key: key.into(),
-            reason: format!("must be finite, got {v:?}"),
-        })
-    }
-}
-
-fn non_empty(key: &str, s: &str) -> Result<(), InvalidKey> {
-    if s.trim().is_empty() {
-        Err(InvalidKey {
-            key: key.into(),
-            reason: "must not be empty".into(),
-        })
-    } else {
-        Ok(())
-    }
-}
-
-impl RobotConfig {
-    /// Reads, parses and validates `path`. Errors name the file, the line and the key.
-    pub fn load(path: &Path) -> Result<RobotConfig, ConfigError> {
-        let (cfg, text) = aisle_config::load_toml::<RobotConfig>(path)?;
-        cfg.checked(path, &text)
-    }
-
-    /// As [`RobotConfig::load`], from text already in memory (`path` names it in errors).
-    pub fn parse(path: &Path, text: &str) -> Result<RobotConfig, ConfigError> {
-        let cfg = aisle_config::parse_toml::<RobotConfig>(path, text)?;
-        cfg.checked(path, text)
-    }
-
-    fn checked(self, path: &Path, text: &str) -> Result<RobotConfig, ConfigError> {
-        self.validate()
-            .map_err(|e| ConfigError::invalid(path, text, &e.key, e.reason))?;
-        Ok(self)
-    }
-
+impl Validate for RobotConfig {
     /// Checks every number; the error names the first offending key.
-    pub fn validate(&self) -> Result<(), InvalidKey> {
+    fn validate(&self) -> Result<(), InvalidKey> {
         non_empty("urdf", &self.urdf.to_string_lossy())?;
         let k = &self.kinematics;
         positive("kinematics.track_width", k.track_width)?;
@@ -272,6 +211,7 @@ impl RobotConfig {
         }
         non_empty("lidar_mount.link", &self.lidar_mount.link)?;
         finite("lidar_mount.offset", &self.lidar_mount.offset)?;
+        finite("lidar_mount.rpy", &self.lidar_mount.rpy)?;
         non_empty("carry.link", &self.carry.link)?;
         positive(
             "watchdog.hold_last_command",
@@ -280,7 +220,9 @@ impl RobotConfig {
         finite("start.pose", &self.start.pose)?;
         Ok(())
     }
+}
 
+impl RobotConfig {
     /// The URDF's path: `urdf` resolved against the directory holding `robot_toml`.
     pub fn urdf_path(&self, robot_toml: &Path) -> PathBuf {
         if self.urdf.is_absolute() {
@@ -307,27 +249,27 @@ impl RobotConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn shipped() -> PathBuf {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/robot.toml")
-    }
+    use aisle_config::{load, parse, testing::shipped};
 
     #[test]
     fn shipped_file_equals_the_seed_defaults() {
-        let cfg = RobotConfig::load(&shipped()).unwrap();
+        let cfg = load::<RobotConfig>(&shipped("robot.toml")).unwrap();
         assert_eq!(cfg, RobotConfig::default());
         assert_eq!(cfg.kinematics.track_width, 0.3765);
         assert_eq!(cfg.kinematics.wheel_radius, 0.065);
         assert_eq!(cfg.kinematics.wheel_speed_limit, 34.0);
         assert_eq!(cfg.footprint.carrying.margin, 0.4);
         assert_eq!(cfg.watchdog_hold_ns(), 300_000_000);
-        assert!(cfg.urdf_path(&shipped()).ends_with("config/jackal.urdf"));
+        assert!(
+            cfg.urdf_path(&shipped("robot.toml"))
+                .ends_with("config/jackal.urdf")
+        );
     }
 
     #[test]
     fn unknown_key_is_refused_with_file_line_and_key() {
         let text = "[kinematics]\ntrack_width = 0.3765\nwheel_radus = 0.065\n";
-        let e = RobotConfig::parse(Path::new("robot.toml"), text)
+        let e = parse::<RobotConfig>(Path::new("robot.toml"), text)
             .unwrap_err()
             .to_string();
         assert!(e.starts_with("robot.toml:3:"), "{e}");
@@ -337,7 +279,7 @@ mod tests {
     #[test]
     fn negative_size_names_the_key_and_line() {
         let text = "[footprint.alone]\nlength = 0.508\nwidth = -0.43\nmargin = 0.1\n";
-        let e = RobotConfig::parse(Path::new("robot.toml"), text)
+        let e = parse::<RobotConfig>(Path::new("robot.toml"), text)
             .unwrap_err()
             .to_string();
         assert!(e.contains("robot.toml:3:"), "{e}");
@@ -346,7 +288,7 @@ mod tests {
 
     #[test]
     fn partial_file_keeps_other_defaults_and_validate_names_keys() {
-        let cfg = RobotConfig::parse(Path::new("r.toml"), "[body]\nheight = 0.3\n").unwrap();
+        let cfg = parse::<RobotConfig>(Path::new("r.toml"), "[body]\nheight = 0.3\n").unwrap();
         assert_eq!(cfg.body.height, 0.3);
         assert_eq!(cfg.kinematics, KinematicsConfig::default());
 

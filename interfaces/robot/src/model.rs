@@ -1,12 +1,12 @@
-//! The robot's frames, from its URDF: where every link sits relative to `base_link`
-//! (all joints at their zero position), where the floor is, and the two mounting
-//! frames the stack needs (the lidar's, the carried rack's).
+//! The robot's frames, from its URDF (read with urdf-rs): where every link sits
+//! relative to `base_link` (all joints at their zero position), where the floor is, and
+//! the two mounting frames the stack needs (the lidar's, the carried rack's).
 //!
 //! Knows nothing of motion or of the world: the robot's pose in the map is given by
 //! the caller. Joint positions are ignored (wheels spin about their own axis, which
 //! moves no other frame), so every transform is computed once at load.
 
-use crate::config::RobotConfig;
+use crate::config::{MountConfig, RobotConfig};
 use aisle_geometry::{Pose2, wrap_angle};
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use std::collections::BTreeMap;
@@ -72,6 +72,15 @@ fn origin_to_isometry(o: &urdf_rs::Pose) -> Option<Isometry3<f64>> {
     ))
 }
 
+/// The mount's offset and rotation in its link's frame.
+fn mount_offset(m: &MountConfig) -> Isometry3<f64> {
+    let [r, p, y] = m.rpy;
+    Isometry3::from_parts(
+        Translation3::from(Vector3::from(m.offset)),
+        UnitQuaternion::from_euler_angles(r, p, y),
+    )
+}
+
 /// Lowest z of a collision shape placed at `at` (frame z is up).
 fn shape_bottom(geom: &urdf_rs::Geometry, at: &Isometry3<f64>) -> Option<f64> {
     let cz = at.translation.vector.z;
@@ -117,12 +126,12 @@ impl RobotModel {
         })?;
         let mut model = Self::from_urdf(file, &robot)?;
         model.lidar_mount = model.mount(&cfg.lidar_mount.link, "lidar_mount.link")?
-            * Translation3::from(Vector3::from(cfg.lidar_mount.offset));
+            * mount_offset(&cfg.lidar_mount);
         model.carry_mount = model.mount(&cfg.carry.link, "carry.link")?;
         Ok(model)
     }
 
-    fn mount(&self, link: &str, key: &str) -> Result<Isometry3<f64>, ModelError> {
+    pub(crate) fn mount(&self, link: &str, key: &str) -> Result<Isometry3<f64>, ModelError> {
         self.in_base
             .get(link)
             .copied()
@@ -273,7 +282,7 @@ impl RobotModel {
         self.mass
     }
 
-    /// The lidar's sensor frame in `base_link`: mounting link, then the configured offset.
+    /// The lidar's sensor frame in `base_link`: mounting link, then the configured pose.
     pub fn lidar_in_base(&self) -> Isometry3<f64> {
         self.lidar_mount
     }
@@ -316,7 +325,7 @@ mod tests {
     use std::f64::consts::PI;
 
     fn shipped() -> (PathBuf, RobotConfig) {
-        let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/jackal.urdf");
+        let p = aisle_config::testing::shipped("jackal.urdf");
         (p, RobotConfig::default())
     }
 
@@ -431,9 +440,10 @@ mod tests {
     #[test]
     fn structural_errors_are_refused() {
         let cfg = RobotConfig {
-            lidar_mount: crate::config::LidarMountConfig {
+            lidar_mount: MountConfig {
                 link: "base_link".into(),
                 offset: [0.0; 3],
+                rpy: [0.0; 3],
             },
             carry: crate::config::CarryConfig {
                 link: "base_link".into(),
