@@ -1,6 +1,6 @@
 //! `aisle map export <dir>`: the scene's static map written as ROS map_server files
-//! (`<dir>/map.yaml` + `<dir>/map.pgm`), so it can be inspected or edited and brought
-//! back through `ros_map` in `mapper.toml`.
+//! (`<dir>/<name>.yaml` + `<dir>/<name>.pgm`), so it can be inspected or edited and
+//! brought back through `ros_map` in `mapper.toml`.
 //!
 //! Always rasterises the scene, even when `mapper.toml` names a ROS map: the point is
 //! to export what the scene gives. Knows nothing of the command line.
@@ -12,9 +12,6 @@ use crate::static_map::static_map_from_scene;
 use aisle_config::scene::Scene;
 use std::path::{Path, PathBuf};
 
-/// File stem of the exported map, as ROS map_saver names its output by default.
-pub const EXPORT_STEM: &str = "map";
-
 /// The two files an export wrote.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ExportedMap {
@@ -22,11 +19,13 @@ pub struct ExportedMap {
     pub image: PathBuf,
 }
 
-/// Rasterises `scene` as `cfg` describes and writes it into `dir` (created if needed).
+/// Rasterises `scene` as `cfg` describes and writes it into `dir` (created if needed)
+/// as `<name>.yaml` and `<name>.pgm`.
 pub fn export_scene_map(
     scene: &Scene,
     cfg: &MapConfig,
     dir: &Path,
+    name: &str,
 ) -> Result<ExportedMap, MapError> {
     cfg.validate()?;
     let grid = static_map_from_scene(scene, cfg)?;
@@ -34,17 +33,21 @@ pub fn export_scene_map(
         file: dir.to_path_buf(),
         source,
     })?;
-    let yaml = dir.join(format!("{EXPORT_STEM}.yaml"));
+    let yaml = dir.join(format!("{name}.yaml"));
     let image = write_ros_map(&yaml, &grid.view())?;
     Ok(ExportedMap { yaml, image })
 }
 
 /// What the CLI calls: reads `mapper.toml` and `warehouse.toml` from `config_dir` and
-/// exports the scene's static map into `dir`.
-pub fn export_from_config_dir(config_dir: &Path, dir: &Path) -> Result<ExportedMap, MapError> {
+/// exports the scene's static map into `dir` as `<name>.yaml` and `<name>.pgm`.
+pub fn export_from_config_dir(
+    config_dir: &Path,
+    dir: &Path,
+    name: &str,
+) -> Result<ExportedMap, MapError> {
     let cfg = MapConfig::load(&config_dir.join("mapper.toml"))?;
     let scene = Scene::load(&config_dir.join("warehouse.toml"))?;
-    export_scene_map(&scene, &cfg, dir)
+    export_scene_map(&scene, &cfg, dir, name)
 }
 
 #[cfg(test)]
@@ -61,7 +64,7 @@ mod tests {
         let out = std::env::temp_dir().join(format!("aisle-mapper-export-{}", std::process::id()));
         std::fs::remove_dir_all(&out).ok();
         let dir = out.join("nested/dir");
-        let files = export_from_config_dir(&config_dir(), &dir).unwrap();
+        let files = export_from_config_dir(&config_dir(), &dir, "map").unwrap();
         assert_eq!(files.yaml, dir.join("map.yaml"));
         assert_eq!(files.image, dir.join("map.pgm"));
         let back = read_ros_map(&files.yaml).unwrap();
@@ -76,7 +79,7 @@ mod tests {
 
     #[test]
     fn a_missing_config_dir_or_unwritable_target_is_an_error() {
-        let e = export_from_config_dir(Path::new("/nonexistent/cfg"), Path::new("/tmp"))
+        let e = export_from_config_dir(Path::new("/nonexistent/cfg"), Path::new("/tmp"), "map")
             .unwrap_err()
             .to_string();
         assert!(e.contains("/nonexistent/cfg/mapper.toml"), "{e}");
@@ -84,7 +87,7 @@ mod tests {
         let file =
             std::env::temp_dir().join(format!("aisle-mapper-export-file-{}", std::process::id()));
         std::fs::write(&file, b"x").unwrap();
-        let e = export_from_config_dir(&config_dir(), &file)
+        let e = export_from_config_dir(&config_dir(), &file, "map")
             .unwrap_err()
             .to_string();
         assert!(e.contains(&file.display().to_string()), "{e}");

@@ -75,8 +75,8 @@ impl Budgets {
     }
 }
 
-/// One row of the latency table.
-#[derive(Debug, Clone, Serialize)]
+/// One row of the latency table (and of the report's `latency`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct StageSummary {
     pub stage: String,
     pub samples: usize,

@@ -1,5 +1,5 @@
-//! `aisle check` and `aisle map export`: load every config file the way the processes
-//! will, so a mistake is reported with its file, line and key before anything starts.
+//! `aisle check`: load every config file the way the processes will, so a mistake is
+//! reported with its file, line and key before anything starts.
 
 use crate::budgets::Budgets;
 use crate::mission::MissionConfig;
@@ -104,22 +104,6 @@ pub fn check_dir(dir: &Path) -> Result<Vec<PathBuf>, String> {
         }
     }
     Ok(checked)
-}
-
-/// Writes the scene's static map (as the mapper builds it) in ROS map_server format.
-pub fn export_map(
-    config_dir: &Path,
-    out_dir: &Path,
-    name: &str,
-) -> Result<(PathBuf, PathBuf), String> {
-    let files = ConfigFiles::in_dir(config_dir);
-    let cfg = aisle_mapper::MapConfig::load(&files.mapper).map_err(|e| e.to_string())?;
-    let grid = aisle_mapper::load_static_map(&cfg, &files.scene).map_err(|e| e.to_string())?;
-    std::fs::create_dir_all(out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
-    let yaml = out_dir.join(format!("{name}.yaml"));
-    let pgm =
-        aisle_mapper::ros_map::write_ros_map(&yaml, &grid.view()).map_err(|e| e.to_string())?;
-    Ok((yaml, pgm))
 }
 
 #[cfg(test)]

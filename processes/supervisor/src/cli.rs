@@ -1,6 +1,11 @@
-//! Command-line interface. Parses arguments, sets up logging, and maps every outcome to
-//! an exit code: 0 success, 1 mission or check failure, 2 usage or setup error.
+//! Command-line interface. Parses arguments, sets up logging, converts the parsed
+//! arguments into the plain option structs of the modules that do the work (which know
+//! nothing of clap), and maps every outcome to an exit code: 0 success, 1 mission or
+//! check failure, 2 usage or setup error.
 
+use crate::nodes::NodeOptions;
+use crate::records::{RecordRequest, ReplayRequest};
+use crate::session::RunOptions;
 use crate::{check, nodes, records, session};
 use aisle_messages::TickMode;
 use clap::{Args, Parser, Subcommand};
@@ -237,24 +242,11 @@ pub fn main() -> ExitCode {
     match cli.command {
         Command::Node(cmd) => {
             init_logging("warn");
-            nodes::main(cmd)
+            nodes::main(cmd.into())
         }
         Command::Check { config_dir: dir } => {
             init_logging("warn");
-            let dir = config_dir(dir.as_deref());
-            match check::check_dir(&dir) {
-                Ok(files) => {
-                    for f in &files {
-                        println!("ok  {}", f.display());
-                    }
-                    println!("{} config files valid in {}", files.len(), dir.display());
-                    ExitCode::SUCCESS
-                }
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    ExitCode::from(1)
-                }
-            }
+            check(&config_dir(dir.as_deref()))
         }
         Command::Map {
             command:
@@ -265,26 +257,15 @@ pub fn main() -> ExitCode {
                 },
         } => {
             init_logging("warn");
-            let cd = config_dir(cd.as_deref());
-            match check::export_map(&cd, &dir, &name) {
-                Ok((yaml, pgm)) => {
-                    println!("wrote {} and {}", yaml.display(), pgm.display());
-                    ExitCode::SUCCESS
-                }
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    ExitCode::from(1)
-                }
-            }
+            export_map(&config_dir(cd.as_deref()), &dir, &name)
         }
         Command::Replay(a) => {
             init_logging("info");
-            records::replay(&a)
+            records::replay(&a.into())
         }
         Command::Record(a) => {
             init_logging("info");
-            let dir = config_dir(a.config_dir.as_deref());
-            records::record(&a, &dir)
+            records::record(&a.into())
         }
         Command::Profile {
             file,
@@ -306,35 +287,130 @@ pub fn main() -> ExitCode {
         }
         Command::Run(args) => {
             init_logging("info");
-            let opts = session::RunOptions {
-                config_dir: config_dir(args.config_dir.as_deref()),
-                mode: if args.realtime {
-                    TickMode::Realtime
-                } else {
-                    TickMode::Lockstep
-                },
-                report: args.report.clone(),
-                quiet: args.quiet,
-                seed: args.seed,
-                lidar_off: args.no_lidar,
-                mission: args.mission.clone(),
-                kill: args.kill.clone(),
-                record: args.record.clone(),
-                crash_on_start: args.crash_on_start.clone(),
-            };
-            match session::run(&opts) {
-                Ok(outcome) => {
-                    if outcome.succeeded {
-                        ExitCode::SUCCESS
-                    } else {
-                        ExitCode::from(1)
-                    }
-                }
-                Err(e) => {
-                    eprintln!("error: {e:#}");
-                    ExitCode::from(2)
-                }
+            run(&args.into())
+        }
+    }
+}
+
+/// `aisle check`.
+fn check(dir: &Path) -> ExitCode {
+    match check::check_dir(dir) {
+        Ok(files) => {
+            for f in &files {
+                println!("ok  {}", f.display());
             }
+            println!("{} config files valid in {}", files.len(), dir.display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+/// `aisle map export`.
+fn export_map(config_dir: &Path, dir: &Path, name: &str) -> ExitCode {
+    match aisle_mapper::export_from_config_dir(config_dir, dir, name) {
+        Ok(files) => {
+            println!(
+                "wrote {} and {}",
+                files.yaml.display(),
+                files.image.display()
+            );
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+/// `aisle run`.
+fn run(opts: &RunOptions) -> ExitCode {
+    match session::run(opts) {
+        Ok(outcome) => {
+            if outcome.succeeded {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(1)
+            }
+        }
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+impl From<RunArgs> for RunOptions {
+    fn from(args: RunArgs) -> RunOptions {
+        RunOptions {
+            config_dir: config_dir(args.config_dir.as_deref()),
+            mode: if args.realtime {
+                TickMode::Realtime
+            } else {
+                TickMode::Lockstep
+            },
+            report: args.report,
+            quiet: args.quiet,
+            seed: args.seed,
+            lidar_off: args.no_lidar,
+            mission: args.mission,
+            kill: args.kill,
+            record: args.record,
+            crash_on_start: args.crash_on_start,
+        }
+    }
+}
+
+impl From<ReplayArgs> for ReplayRequest {
+    fn from(a: ReplayArgs) -> ReplayRequest {
+        ReplayRequest {
+            file: a.file,
+            prefix: a.prefix,
+            root: a.root,
+            rate: a.rate,
+            fast: a.fast,
+            topics: a.topics,
+            start: a.start,
+            lockstep: a.lockstep,
+            wait_for: a.wait_for,
+            check: a.check,
+            config_dir: a.config_dir,
+        }
+    }
+}
+
+impl From<RecordArgs> for RecordRequest {
+    fn from(a: RecordArgs) -> RecordRequest {
+        RecordRequest {
+            config_dir: config_dir(a.config_dir.as_deref()),
+            prefix: a.prefix,
+            root: a.root,
+            output: a.output,
+            mission: a.mission,
+            idle_stop: a.idle_stop,
+        }
+    }
+}
+
+impl From<NodeCmd> for NodeOptions {
+    fn from(cmd: NodeCmd) -> NodeOptions {
+        NodeOptions {
+            name: cmd.name,
+            prefix: cmd.prefix,
+            root: cmd.root,
+            config_dir: cmd.config_dir,
+            dt_ns: cmd.dt_ns,
+            controller_every: cmd.controller_every,
+            start: cmd.start,
+            lidar_off: cmd.lidar_off,
+            restarted: cmd.restarted,
+            out: cmd.out,
+            recorded: cmd.recorded,
+            fail_on_start: cmd.fail_on_start,
         }
     }
 }

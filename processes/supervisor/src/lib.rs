@@ -1,9 +1,11 @@
 //! aisle-supervisor: the `aisle` command.
 //!
-//! - [`cli`]: argument parsing and dispatch (`run`, `check`, `node`, `map export`).
+//! - [`cli`]: argument parsing and dispatch (`run`, `check`, `node`, `map export`, ...);
+//!   the only module that knows clap: it hands the others plain option structs.
 //! - [`launch`]: starting, watching and stopping the node processes.
-//! - [`session`]: one run of the process group: readiness, the tick loop, shutdown.
-//! - [`mission`]: the mission state machine (pure; no bus, no clock).
+//! - [`session`]: one run of the process group: startup, node health and restarts,
+//!   the tick loop, the mission's actions on the bus, shutdown and the report.
+//! - [`mission`]: `mission.toml` and the mission state machine (pure; no bus, no clock).
 //! - [`budgets`]: latency budgets and the per-stage statistics.
 //! - [`report`]: the run's metrics and their JSON form.
 //! - [`restart`]: the restart policy and the count of restarts.

@@ -5,12 +5,34 @@
 //! Exit codes: 0 after a stop request, 1 when the node failed (the reason is on stderr
 //! and in its last heartbeat), 2 for a bad command line.
 
-use crate::cli::NodeCmd;
 use aisle_bus::{Instance, NodeArgs, NodeError};
 use aisle_messages::NodeKind;
+use std::path::PathBuf;
 use std::process::ExitCode;
 
-pub fn main(cmd: NodeCmd) -> ExitCode {
+/// What `aisle node` is asked to run (the command line as `cli` parsed it).
+#[derive(Debug, Clone)]
+pub struct NodeOptions {
+    pub name: String,
+    pub prefix: String,
+    pub root: PathBuf,
+    pub config_dir: PathBuf,
+    pub dt_ns: u64,
+    pub controller_every: u32,
+    /// Start pose `x,y,heading`, as given (checked here).
+    pub start: String,
+    pub lidar_off: bool,
+    /// This node replaces one that died: resume from its published state.
+    pub restarted: bool,
+    /// The recorder's output file.
+    pub out: Option<PathBuf>,
+    /// A recorder runs (the simulator waits for it in lockstep).
+    pub recorded: bool,
+    /// Fault injection for tests: fail at start, every time.
+    pub fail_on_start: bool,
+}
+
+pub fn main(cmd: NodeOptions) -> ExitCode {
     let Some(kind) = NodeKind::from_name(&cmd.name)
         .filter(|k| NodeKind::LAUNCHED.contains(k) || *k == NodeKind::Recorder)
     else {

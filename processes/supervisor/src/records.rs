@@ -1,16 +1,42 @@
 //! `aisle record`, `aisle replay`, `aisle profile` and `aisle render`: the command-line side of the MCAP
 //! tools in aisle-tools (which hold the formats and the algorithms).
 
-use crate::cli::{RecordArgs, ReplayArgs};
 use crate::mission::MissionConfig;
 use aisle_bus::{Bus, Instance, NodeArgs};
 use aisle_messages::NodeKind;
 use aisle_tools::lockstep::{LockstepOptions, LockstepPorts};
 use aisle_tools::{RecordFile, RecorderOptions};
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Duration;
+
+/// `aisle replay` as asked on the command line (see `cli` for each option's meaning).
+#[derive(Debug, Clone)]
+pub struct ReplayRequest {
+    pub file: PathBuf,
+    pub prefix: Option<String>,
+    pub root: Option<PathBuf>,
+    pub rate: f64,
+    pub fast: bool,
+    pub topics: Vec<String>,
+    pub start: f64,
+    pub lockstep: bool,
+    pub wait_for: Vec<String>,
+    pub check: bool,
+    pub config_dir: Option<PathBuf>,
+}
+
+/// `aisle record` as asked on the command line, with the config directory resolved.
+#[derive(Debug, Clone)]
+pub struct RecordRequest {
+    pub prefix: String,
+    pub root: PathBuf,
+    pub output: PathBuf,
+    pub config_dir: PathBuf,
+    pub mission: Option<PathBuf>,
+    pub idle_stop: f64,
+}
 
 /// An error and its causes, each said once (a library error that already names its
 /// cause is not followed by the cause again).
@@ -33,7 +59,7 @@ fn fail(e: impl std::fmt::Display) -> ExitCode {
     ExitCode::from(1)
 }
 
-pub fn replay(a: &ReplayArgs) -> ExitCode {
+pub fn replay(a: &ReplayRequest) -> ExitCode {
     if a.check {
         return replay_check(a);
     }
@@ -72,7 +98,8 @@ pub fn replay(a: &ReplayArgs) -> ExitCode {
 }
 
 /// `aisle record`: the recorder node attached to a running group, from this process.
-pub fn record(a: &RecordArgs, config_dir: &Path) -> ExitCode {
+pub fn record(a: &RecordRequest) -> ExitCode {
+    let config_dir = a.config_dir.as_path();
     if !(a.idle_stop.is_finite() && a.idle_stop > 0.0) {
         return fail(format!(
             "--idle-stop must be positive seconds, got {}",
@@ -144,7 +171,7 @@ fn print_replayed(published: &BTreeMap<String, u64>, truncated: Option<&str>, st
 
 /// `--lockstep`: tick by tick, paced by the `--wait-for` nodes, into the live instance
 /// named by `--prefix`/`--root`, or into those nodes launched here.
-fn replay_lockstep(a: &ReplayArgs, instance: Option<Instance>) -> ExitCode {
+fn replay_lockstep(a: &ReplayRequest, instance: Option<Instance>) -> ExitCode {
     let mut consumers = Vec::new();
     for name in &a.wait_for {
         match NodeKind::from_name(name).filter(|k| NodeKind::LAUNCHED.contains(k)) {
@@ -204,7 +231,7 @@ fn replay_lockstep(a: &ReplayArgs, instance: Option<Instance>) -> ExitCode {
 }
 
 /// `--check`: exit 0 identical, 1 diverged, 2 the check could not run.
-fn replay_check(a: &ReplayArgs) -> ExitCode {
+fn replay_check(a: &ReplayRequest) -> ExitCode {
     let summary = match crate::replay_check::check(&a.file, a.config_dir.as_deref()) {
         Ok(s) => s,
         Err(e) => {

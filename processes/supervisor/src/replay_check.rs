@@ -9,9 +9,9 @@
 //! the tools crate's.
 
 use crate::launch::{LaunchSpec, ProcessGroup, current_exe, describe};
-use aisle_bus::{Bus, Instance, WaitOutcome};
+use aisle_bus::{Bus, Instance, Publisher, Subscriber, WaitOutcome};
 use aisle_messages::topics::names as s;
-use aisle_messages::{NodeKind, NodeState, TickMode, topics};
+use aisle_messages::{Heartbeat, InstanceInfo, NodeKind, NodeState, TickMode, topics};
 use aisle_tools::RecordFile;
 use aisle_tools::lockstep::{LockstepOptions, LockstepPorts, LockstepSummary, replay_lockstep};
 use anyhow::{Context, anyhow, bail};
@@ -181,42 +181,7 @@ pub fn replay_into_fresh_group(
         for &kind in nodes {
             group.spawn(kind, false).map_err(|e| anyhow!(e))?;
         }
-        let gone = |group: &mut ProcessGroup| -> Result<(), String> {
-            match group.poll_exit() {
-                Some((kind, status)) => Err(format!(
-                    "node `{}` {}{}",
-                    kind.name(),
-                    describe(&status),
-                    group
-                        .last_line(kind)
-                        .map(|l| format!(": {l}"))
-                        .unwrap_or_default()
-                )),
-                None => Ok(()),
-            }
-        };
-        let mut ready = Vec::new();
-        let started = Instant::now();
-        while nodes.iter().any(|k| !ready.contains(k)) {
-            gone(&mut group).map_err(|e| anyhow!(e))?;
-            // Joining nodes receive the announcement (history) when we look for them.
-            info.update_connections()?;
-            if started.elapsed() > READY_TIMEOUT {
-                let missing: Vec<&str> = nodes
-                    .iter()
-                    .filter(|k| !ready.contains(k))
-                    .map(|k| k.name())
-                    .collect();
-                bail!("not ready within {READY_TIMEOUT:?}: {}", missing.join(", "));
-            }
-            if let (WaitOutcome::Matched, Some(hb)) =
-                heartbeats.wait_for(Duration::from_millis(100), |_| true, || {})?
-                && hb.state == NodeState::Ready as u32
-                && let Some(kind) = NodeKind::from_u32(hb.node)
-            {
-                ready.push(kind);
-            }
-        }
+        wait_ready(nodes, &mut group, &info, &heartbeats)?;
         instance.restrict_shm_permissions();
         let summary = replay_lockstep(&mut ports, &file, &opts, &mut || gone(&mut group));
         group.stop(GRACE);
@@ -226,4 +191,52 @@ pub fn replay_into_fresh_group(
         tracing::warn!("could not remove instance {}: {e}", instance.prefix);
     }
     result
+}
+
+/// A node of the group that exited, as an error naming it and its last words.
+fn gone(group: &mut ProcessGroup) -> Result<(), String> {
+    match group.poll_exit() {
+        Some((kind, status)) => Err(format!(
+            "node `{}` {}{}",
+            kind.name(),
+            describe(&status),
+            group
+                .last_line(kind)
+                .map(|l| format!(": {l}"))
+                .unwrap_or_default()
+        )),
+        None => Ok(()),
+    }
+}
+
+/// Waits until every node of `nodes` reported ready (or one exited, or time ran out).
+fn wait_ready(
+    nodes: &[NodeKind],
+    group: &mut ProcessGroup,
+    info: &Publisher<InstanceInfo>,
+    heartbeats: &Subscriber<Heartbeat>,
+) -> anyhow::Result<()> {
+    let mut ready = Vec::new();
+    let started = Instant::now();
+    while nodes.iter().any(|k| !ready.contains(k)) {
+        gone(group).map_err(|e| anyhow!(e))?;
+        // Joining nodes receive the announcement (history) when we look for them.
+        info.update_connections()?;
+        if started.elapsed() > READY_TIMEOUT {
+            let missing: Vec<&str> = nodes
+                .iter()
+                .filter(|k| !ready.contains(k))
+                .map(|k| k.name())
+                .collect();
+            bail!("not ready within {READY_TIMEOUT:?}: {}", missing.join(", "));
+        }
+        if let (WaitOutcome::Matched, Some(hb)) =
+            heartbeats.wait_for(Duration::from_millis(100), |_| true, || {})?
+            && hb.state == NodeState::Ready as u32
+            && let Some(kind) = NodeKind::from_u32(hb.node)
+        {
+            ready.push(kind);
+        }
+    }
+    Ok(())
 }

@@ -38,69 +38,13 @@ pub struct RunReport {
     pub replans: u32,
     /// Node restarts after a crash or a missed heartbeat deadline.
     pub restarts: u32,
-    pub legs: Vec<SerdeLeg>,
-    pub latency: Vec<SerdeStage>,
+    pub legs: Vec<LegResult>,
+    pub latency: Vec<StageSummary>,
     /// t, x, y, heading of the robot at every tick (ground truth).
     pub driven_path: Vec<[f64; 4]>,
     pub reference_paths: Vec<ReferencePath>,
     /// Movable bodies at the end of the run (ground truth).
     pub bodies_final: Vec<BodyPose>,
-}
-
-/// [`LegResult`] in the report's (de)serialisable form.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct SerdeLeg {
-    pub name: String,
-    pub reached: bool,
-    pub start_s: f64,
-    pub end_s: f64,
-    pub replans: u32,
-    pub plan_failures: u32,
-    pub final_error_m: f64,
-    pub final_heading_error_rad: f64,
-}
-
-impl From<&LegResult> for SerdeLeg {
-    fn from(r: &LegResult) -> Self {
-        SerdeLeg {
-            name: r.name.clone(),
-            reached: r.reached,
-            start_s: r.start_s,
-            end_s: r.end_s,
-            replans: r.replans,
-            plan_failures: r.plan_failures,
-            final_error_m: r.final_error_m,
-            final_heading_error_rad: r.final_heading_error_rad,
-        }
-    }
-}
-
-/// [`StageSummary`] in the report's (de)serialisable form.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct SerdeStage {
-    pub stage: String,
-    pub samples: usize,
-    pub p50_ms: f64,
-    pub p99_ms: f64,
-    pub max_ms: f64,
-    pub jitter_ms: f64,
-    pub budget_ms: f64,
-    pub misses: usize,
-}
-
-impl From<&StageSummary> for SerdeStage {
-    fn from(s: &StageSummary) -> Self {
-        SerdeStage {
-            stage: s.stage.clone(),
-            samples: s.samples,
-            p50_ms: s.p50_ms,
-            p99_ms: s.p99_ms,
-            max_ms: s.max_ms,
-            jitter_ms: s.jitter_ms,
-            budget_ms: s.budget_ms,
-            misses: s.misses,
-        }
-    }
 }
 
 impl RunReport {

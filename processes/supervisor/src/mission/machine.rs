@@ -1,0 +1,423 @@
+//! The mission state machine, following the seed's loop: per leg choose the footprint
+//! and margin, ask for a reference path, hand the controller its goal, attach or detach
+//! the rack, rotate in place where the mission says so, and recover by replanning when
+//! the controller reports an infeasible band.
+//!
+//! Pure: it is fed events (plan results, controller reports, time) and answers with
+//! [`Action`]s. It knows nothing of the bus, of clocks or of processes.
+
+use super::config::{LegSpec, MissionConfig};
+use super::events::{Action, ControllerReport, PlanFailure};
+use aisle_geometry::{Footprint, PathPose, Pose2};
+use serde::{Deserialize, Serialize};
+
+/// Footprint and safety margin with and without the carried rack.
+#[derive(Debug, Clone, Copy)]
+pub struct Footprints {
+    pub alone: Footprint,
+    pub alone_margin: f64,
+    pub carrying: Footprint,
+    pub carrying_margin: f64,
+}
+
+/// Where a body the mission names stands (from the scene), for the mapper's ignore list.
+#[derive(Debug, Clone)]
+pub struct NamedBody {
+    pub name: String,
+    pub pose: Pose2,
+    pub footprint: Footprint,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Phase {
+    Idle,
+    Planning,
+    Driving,
+    Rotating,
+    Succeeded,
+    Failed,
+}
+
+/// Per-leg outcome for reports.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct LegResult {
+    pub name: String,
+    pub reached: bool,
+    pub start_s: f64,
+    pub end_s: f64,
+    pub replans: u32,
+    pub plan_failures: u32,
+    pub final_error_m: f64,
+    pub final_heading_error_rad: f64,
+}
+
+/// One mission in progress: the current leg, its phase and counters, and what the
+/// finished legs left behind (results, reference paths).
+pub struct Mission {
+    cfg: MissionConfig,
+    footprints: Footprints,
+    bodies: Vec<NamedBody>,
+    leg: usize,
+    phase: Phase,
+    leg_start_s: f64,
+    replans: u32,
+    plan_failures: u32,
+    cooldown: u32,
+    carrying: bool,
+    /// Where the last carried body was set down (the robot leaves from under it).
+    dropped: Option<(Pose2, Footprint)>,
+    /// While set, the leg is on its straight departure to this pose.
+    departure: Option<Pose2>,
+    /// The controller has a reference path for the current leg.
+    has_reference: bool,
+    failure: Option<String>,
+    pub results: Vec<LegResult>,
+    pub reference_paths: Vec<(usize, Vec<PathPose>)>,
+}
+
+impl Mission {
+    pub fn new(cfg: MissionConfig, footprints: Footprints, bodies: Vec<NamedBody>) -> Mission {
+        Mission {
+            cfg,
+            footprints,
+            bodies,
+            leg: 0,
+            phase: Phase::Idle,
+            leg_start_s: 0.0,
+            replans: 0,
+            plan_failures: 0,
+            cooldown: 0,
+            carrying: false,
+            dropped: None,
+            departure: None,
+            has_reference: false,
+            failure: None,
+            results: Vec::new(),
+            reference_paths: Vec::new(),
+        }
+    }
+
+    pub fn leg_index(&self) -> usize {
+        self.leg
+    }
+
+    pub fn leg_count(&self) -> usize {
+        self.cfg.leg.len()
+    }
+
+    pub fn leg_name(&self) -> &str {
+        self.cfg.leg.get(self.leg).map_or("", |l| l.name.as_str())
+    }
+
+    pub fn replans_total(&self) -> u32 {
+        self.results.iter().map(|r| r.replans).sum::<u32>()
+            + if self.is_finished() { 0 } else { self.replans }
+    }
+
+    pub fn is_finished(&self) -> bool {
+        matches!(self.phase, Phase::Succeeded | Phase::Failed)
+    }
+
+    pub fn succeeded(&self) -> bool {
+        self.phase == Phase::Succeeded
+    }
+
+    pub fn failure(&self) -> Option<&str> {
+        self.failure.as_deref()
+    }
+
+    pub fn is_planning(&self) -> bool {
+        self.phase == Phase::Planning
+    }
+
+    pub fn is_rotating(&self) -> bool {
+        self.phase == Phase::Rotating
+    }
+
+    fn spec(&self) -> &LegSpec {
+        &self.cfg.leg[self.leg]
+    }
+
+    fn goal(&self) -> Pose2 {
+        if let Some(d) = self.departure {
+            return d;
+        }
+        let g = self.spec().goal;
+        Pose2::new(g[0], g[1], g[2])
+    }
+
+    fn footprint(&self) -> (Footprint, f64) {
+        if self.carrying {
+            (self.footprints.carrying, self.footprints.carrying_margin)
+        } else {
+            (self.footprints.alone, self.footprints.alone_margin)
+        }
+    }
+
+    fn body(&self, name: &str) -> Option<&NamedBody> {
+        self.bodies.iter().find(|b| b.name == name)
+    }
+
+    fn mapper_control(&self) -> Action {
+        let ignore = self
+            .spec()
+            .approach
+            .as_deref()
+            .and_then(|n| self.body(n))
+            .map(|b| (b.pose, b.footprint))
+            .or(self.dropped);
+        let carried = if self.carrying {
+            self.spec()
+                .carry
+                .as_deref()
+                .and_then(|n| self.body(n))
+                .map(|b| b.footprint)
+        } else {
+            None
+        };
+        Action::MapperControl { ignore, carried }
+    }
+
+    /// Begins the current leg at sim time `now_s` from `pose`.
+    pub fn start_leg(&mut self, now_s: f64, pose: Pose2) -> Vec<Action> {
+        self.leg_start_s = now_s;
+        self.replans = 0;
+        self.plan_failures = 0;
+        self.cooldown = 0;
+        self.has_reference = false;
+        let mut actions = Vec::new();
+        if let Some(body) = self.spec().carry.clone() {
+            self.carrying = true;
+            actions.push(Action::Attach(body));
+        }
+        actions.push(self.mapper_control());
+        let (footprint, margin) = self.footprint();
+        if self.spec().rotate {
+            self.phase = Phase::Rotating;
+            actions.push(Action::Rotate {
+                goal: self.goal(),
+                footprint,
+                margin,
+            });
+        } else {
+            self.phase = Phase::Planning;
+            self.departure = self
+                .spec()
+                .depart
+                .map(|d| pose.compose(&Pose2::new(d, 0.0, 0.0)));
+            // As in the seed, the first reference path of a leg is planned on the static
+            // map; replans use the lidar detections too.
+            actions.push(Action::Plan {
+                start: pose,
+                goal: self.goal(),
+                footprint,
+                margin,
+                use_detections: false,
+            });
+        }
+        actions
+    }
+
+    /// The planner answered.
+    pub fn on_plan(
+        &mut self,
+        now_s: f64,
+        pose: Pose2,
+        result: Result<Vec<PathPose>, PlanFailure>,
+    ) -> Vec<Action> {
+        if self.phase != Phase::Planning {
+            return Vec::new();
+        }
+        let (footprint, margin) = self.footprint();
+        match result {
+            Ok(reference) => {
+                self.phase = Phase::Driving;
+                self.has_reference = true;
+                self.reference_paths.push((self.leg, reference.clone()));
+                vec![Action::Follow {
+                    reference,
+                    goal: self.goal(),
+                    footprint,
+                    margin,
+                }]
+            }
+            Err(PlanFailure(why)) => {
+                self.plan_failures += 1;
+                // Without any reference the controller has nothing to drive: a first plan
+                // that fails (start or goal occupied, no path) ends the mission.
+                if !self.has_reference
+                    || self.replans + self.plan_failures > self.cfg.max_replans_per_leg
+                {
+                    self.fail(
+                        now_s,
+                        pose,
+                        format!(
+                            "leg {} `{}`: no reference path: {why}",
+                            self.leg + 1,
+                            self.leg_name()
+                        ),
+                    )
+                } else {
+                    // Keep the previous reference (the controller still has it) and retry later.
+                    self.phase = Phase::Driving;
+                    self.cooldown = self.cfg.replan_cooldown_steps;
+                    Vec::new()
+                }
+            }
+        }
+    }
+
+    /// The controller reported on the current goal (once per controller step).
+    pub fn on_controller(
+        &mut self,
+        now_s: f64,
+        pose: Pose2,
+        report: ControllerReport,
+    ) -> Vec<Action> {
+        match self.phase {
+            Phase::Driving | Phase::Rotating => {}
+            _ => return Vec::new(),
+        }
+        if report.reached_goal && self.departure.is_some() {
+            // Out from under: now the leg proper, from here.
+            self.departure = None;
+            self.phase = Phase::Planning;
+            self.has_reference = false;
+            let (footprint, margin) = self.footprint();
+            return vec![Action::Plan {
+                start: pose,
+                goal: self.goal(),
+                footprint,
+                margin,
+                use_detections: false,
+            }];
+        }
+        if report.reached_goal {
+            return self.finish_leg(now_s, pose);
+        }
+        if self.phase == Phase::Driving {
+            // After a replan the controller gets `replan_cooldown_steps` steps on the new
+            // reference before its reports can start another one.
+            if self.cooldown > 0 {
+                self.cooldown -= 1;
+                return Vec::new();
+            }
+            // MATLAB's flags 1-5 mean the band cannot be driven as it is: replan. Flag 6
+            // (aisle's own: an acceleration over its limit that slowing down could not
+            // remove) is driven all the same, and a new reference would not change it.
+            let infeasible = (1..=5).contains(&report.exit_flag) || !report.timestamps_increasing;
+            if report.exit_flag == 6 {
+                tracing::warn!(
+                    "t = {now_s:.1} s: the controller's band exceeds an acceleration limit (exit flag 6)"
+                );
+            }
+            if infeasible {
+                self.replans += 1;
+                if self.replans + self.plan_failures > self.cfg.max_replans_per_leg {
+                    return self.fail(
+                        now_s,
+                        pose,
+                        format!(
+                            "leg {} `{}`: the controller stayed infeasible (exit flag {}) after {} replans",
+                            self.leg + 1,
+                            self.leg_name(),
+                            report.exit_flag,
+                            self.replans - 1
+                        ),
+                    );
+                }
+                self.phase = Phase::Planning;
+                self.cooldown = self.cfg.replan_cooldown_steps;
+                let (footprint, margin) = self.footprint();
+                return vec![Action::Plan {
+                    start: pose,
+                    goal: self.goal(),
+                    footprint,
+                    margin,
+                    use_detections: true,
+                }];
+            }
+        }
+        Vec::new()
+    }
+
+    /// Called every tick: enforces the leg timeout.
+    pub fn on_tick(&mut self, now_s: f64, pose: Pose2) -> Vec<Action> {
+        if !self.is_finished()
+            && self.phase != Phase::Idle
+            && now_s - self.leg_start_s > self.cfg.leg_timeout_s
+        {
+            let why = format!(
+                "leg {} `{}`: not reached within {} s of sim time",
+                self.leg + 1,
+                self.leg_name(),
+                self.cfg.leg_timeout_s
+            );
+            return self.fail(now_s, pose, why);
+        }
+        Vec::new()
+    }
+
+    fn record(&mut self, now_s: f64, pose: Pose2, reached: bool) {
+        let goal = self.goal();
+        self.results.push(LegResult {
+            name: self.leg_name().to_string(),
+            reached,
+            start_s: self.leg_start_s,
+            end_s: now_s,
+            replans: self.replans,
+            plan_failures: self.plan_failures,
+            final_error_m: pose.distance(&goal),
+            final_heading_error_rad: pose.heading_error(&goal),
+        });
+    }
+
+    fn finish_leg(&mut self, now_s: f64, pose: Pose2) -> Vec<Action> {
+        self.record(now_s, pose, true);
+        let mut actions = Vec::new();
+        if self.carrying {
+            self.carrying = false;
+            // The body stays where the robot stands, which the robot then drives out
+            // from under: tell the mapper that its legs are not obstacles there.
+            let footprint = self
+                .spec()
+                .carry
+                .as_deref()
+                .and_then(|n| self.body(n))
+                .map(|b| b.footprint);
+            self.dropped = footprint.map(|f| (pose, f));
+            actions.push(Action::Detach);
+        }
+        self.leg += 1;
+        if self.leg == self.cfg.leg.len() {
+            self.phase = Phase::Succeeded;
+            self.leg -= 1;
+            actions.push(Action::MapperControl {
+                ignore: None,
+                carried: None,
+            });
+            actions.push(Action::Halt);
+            return actions;
+        }
+        actions.extend(self.start_leg(now_s, pose));
+        actions
+    }
+
+    fn fail(&mut self, now_s: f64, pose: Pose2, why: String) -> Vec<Action> {
+        self.record(now_s, pose, false);
+        self.phase = Phase::Failed;
+        self.failure = Some(why);
+        vec![Action::Halt]
+    }
+
+    /// Ends the mission from outside (a stop request or a dead process).
+    pub fn abort(&mut self, now_s: f64, pose: Pose2, why: String) -> Vec<Action> {
+        if self.is_finished() {
+            return Vec::new();
+        }
+        self.fail(now_s, pose, why)
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,254 @@
+//! The mission state machine against the seed sequence and its failure modes.
+
+use super::*;
+use aisle_geometry::Direction;
+
+fn mission() -> Mission {
+    let cfg = MissionConfig {
+        start: [0.0; 3],
+        leg_timeout_s: 100.0,
+        max_replans_per_leg: 2,
+        replan_cooldown_steps: 1,
+        update_rate_hz: 10.0,
+        controller_period_s: 0.5,
+        planner_timeout_s: 5.0,
+        goal_tolerance: [0.2; 3],
+        leg: vec![
+            LegSpec {
+                name: "a".into(),
+                goal: [1.0, 0.0, 0.0],
+                rotate: false,
+                carry: None,
+                approach: Some("rack".into()),
+                depart: None,
+            },
+            LegSpec {
+                name: "b".into(),
+                goal: [1.0, 0.0, 3.0],
+                rotate: true,
+                carry: None,
+                approach: None,
+                depart: None,
+            },
+            LegSpec {
+                name: "c".into(),
+                goal: [2.0, 0.0, 0.0],
+                rotate: false,
+                carry: Some("rack".into()),
+                approach: None,
+                depart: None,
+            },
+        ],
+    };
+    let fp = Footprints {
+        alone: Footprint::new(0.5, 0.4),
+        alone_margin: 0.1,
+        carrying: Footprint::new(0.9, 0.8),
+        carrying_margin: 0.4,
+    };
+    let bodies = vec![NamedBody {
+        name: "rack".into(),
+        pose: Pose2::new(1.0, 0.0, 0.0),
+        footprint: Footprint::new(0.88, 0.8),
+    }];
+    Mission::new(cfg, fp, bodies)
+}
+
+fn path() -> Vec<PathPose> {
+    vec![PathPose::new(Pose2::default(), Direction::Forward)]
+}
+
+const OK: ControllerReport = ControllerReport {
+    reached_goal: false,
+    exit_flag: 0,
+    timestamps_increasing: true,
+};
+const REACHED: ControllerReport = ControllerReport {
+    reached_goal: true,
+    exit_flag: 0,
+    timestamps_increasing: true,
+};
+
+#[test]
+fn the_seed_sequence_plans_rotates_attaches_and_detaches() {
+    let mut m = mission();
+    let p = Pose2::default();
+    let a = m.start_leg(0.0, p);
+    assert!(matches!(
+        a[0],
+        Action::MapperControl {
+            ignore: Some(_),
+            carried: None
+        }
+    ));
+    assert!(matches!(a[1], Action::Plan { use_detections: false, margin, .. } if margin == 0.1));
+    assert!(matches!(
+        m.on_plan(0.0, p, Ok(path()))[0],
+        Action::Follow { .. }
+    ));
+    assert!(m.on_controller(1.0, p, OK).is_empty());
+    let a = m.on_controller(2.0, p, REACHED);
+    assert!(
+        a.iter().any(|x| matches!(x, Action::Rotate { .. })),
+        "{a:?}"
+    );
+    let a = m.on_controller(3.0, p, REACHED);
+    assert_eq!(a[0], Action::Attach("rack".into()));
+    assert!(matches!(
+        a[1],
+        Action::MapperControl {
+            ignore: None,
+            carried: Some(_)
+        }
+    ));
+    assert!(matches!(a[2], Action::Plan { margin, .. } if margin == 0.4));
+    m.on_plan(3.0, p, Ok(path()));
+    let a = m.on_controller(9.0, p, REACHED);
+    assert_eq!(a[0], Action::Detach);
+    assert_eq!(*a.last().unwrap(), Action::Halt);
+    assert!(m.succeeded());
+    assert_eq!(m.results.len(), 3);
+}
+
+#[test]
+fn infeasible_bands_replan_with_detections_then_fail_with_a_reason() {
+    let mut m = mission();
+    let p = Pose2::default();
+    m.start_leg(0.0, p);
+    m.on_plan(0.0, p, Ok(path()));
+    let bad = ControllerReport {
+        reached_goal: false,
+        exit_flag: 1,
+        timestamps_increasing: true,
+    };
+    let a = m.on_controller(1.0, p, bad);
+    assert!(matches!(
+        a[0],
+        Action::Plan {
+            use_detections: true,
+            ..
+        }
+    ));
+    m.on_plan(1.0, p, Ok(path()));
+    // Cooldown: the next infeasible report does not replan at once.
+    assert!(m.on_controller(1.5, p, bad).is_empty());
+    let a = m.on_controller(
+        2.0,
+        p,
+        ControllerReport {
+            timestamps_increasing: false,
+            exit_flag: 0,
+            reached_goal: false,
+        },
+    );
+    assert!(matches!(a[0], Action::Plan { .. }));
+    m.on_plan(2.0, p, Ok(path()));
+    m.on_controller(2.5, p, bad);
+    let a = m.on_controller(3.0, p, bad);
+    assert_eq!(a, vec![Action::Halt]);
+    assert!(
+        m.failure().unwrap().contains("infeasible"),
+        "{:?}",
+        m.failure()
+    );
+}
+
+#[test]
+fn an_acceleration_flag_is_driven_not_replanned() {
+    let mut m = mission();
+    let p = Pose2::default();
+    m.start_leg(0.0, p);
+    m.on_plan(0.0, p, Ok(path()));
+    let hard = ControllerReport {
+        reached_goal: false,
+        exit_flag: 6,
+        timestamps_increasing: true,
+    };
+    for k in 0..10 {
+        assert!(m.on_controller(1.0 + f64::from(k), p, hard).is_empty());
+    }
+    assert!(m.failure().is_none());
+}
+
+#[test]
+fn an_unreachable_goal_fails_the_mission() {
+    let mut m = mission();
+    let p = Pose2::default();
+    m.start_leg(0.0, p);
+    let a = m.on_plan(0.0, p, Err(PlanFailure("goal occupied".into())));
+    assert_eq!(a, vec![Action::Halt]);
+    assert!(m.failure().unwrap().contains("goal occupied"));
+}
+
+#[test]
+fn a_failed_replan_keeps_the_old_reference_and_retries() {
+    let mut m = mission();
+    let p = Pose2::default();
+    m.start_leg(0.0, p);
+    m.on_plan(0.0, p, Ok(path()));
+    let bad = ControllerReport {
+        reached_goal: false,
+        exit_flag: 1,
+        timestamps_increasing: true,
+    };
+    m.on_controller(0.5, p, bad);
+    assert!(
+        m.on_plan(0.5, p, Err(PlanFailure("no path".into())))
+            .is_empty()
+    );
+    assert!(!m.is_finished());
+    m.on_controller(1.0, p, bad);
+    let a = m.on_controller(1.5, p, bad);
+    assert!(a.is_empty() || matches!(a[0], Action::Halt), "{a:?}");
+}
+
+#[test]
+fn a_leg_that_takes_too_long_fails() {
+    let mut m = mission();
+    let p = Pose2::default();
+    m.start_leg(0.0, p);
+    assert!(m.on_tick(50.0, p).is_empty());
+    assert_eq!(m.on_tick(100.5, p), vec![Action::Halt]);
+    assert!(m.failure().unwrap().contains("not reached within"));
+}
+
+#[test]
+fn a_departing_leg_drives_straight_out_first_then_plans_the_leg() {
+    let mut m = mission();
+    m.cfg.leg[2].depart = Some(1.2);
+    let p = Pose2::default();
+    m.start_leg(0.0, p);
+    m.on_plan(0.0, p, Ok(path()));
+    m.on_controller(1.0, p, REACHED);
+    let at = Pose2::new(1.0, 0.0, 0.5);
+    let a = m.on_controller(2.0, at, REACHED);
+    // Leg c carries; its first motion is the straight departure.
+    let Some(Action::Plan { goal, .. }) = a.iter().find(|x| matches!(x, Action::Plan { .. }))
+    else {
+        panic!("{a:?}")
+    };
+    assert!(
+        (goal.x - (1.0 + 1.2 * 0.5f64.cos())).abs() < 1e-12
+            && (goal.y - 1.2 * 0.5f64.sin()).abs() < 1e-12
+    );
+    assert_eq!(goal.theta, 0.5);
+    m.on_plan(3.0, at, Ok(path()));
+    let out = Pose2::new(2.0, 0.5, 0.5);
+    let a = m.on_controller(4.0, out, REACHED);
+    assert_eq!(a.len(), 1);
+    let Action::Plan {
+        start,
+        goal,
+        use_detections,
+        ..
+    } = a[0]
+    else {
+        panic!("{a:?}")
+    };
+    assert_eq!(
+        (start, goal, use_detections),
+        (out, Pose2::new(2.0, 0.0, 0.0), false)
+    );
+    assert!(!m.is_finished());
+    assert_eq!(m.results.len(), 2, "the departure is part of the leg");
+}

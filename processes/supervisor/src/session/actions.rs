@@ -1,0 +1,284 @@
+//! Carrying out what the mission asks ([`Action`]s): plan requests (and waiting for the
+//! answer while watching the children), controller goals, simulator commands, the
+//! mapper's ignore and carried rectangles. Translates between the mission's types and
+//! the message layouts; decides nothing itself.
+
+use super::run_config::RunConfig;
+use super::{POLL, RunAborted, Session};
+use crate::mission::{Action, PlanFailure};
+use aisle_bus::{Stamp, clock};
+use aisle_geometry::{Footprint, PathPose, Pose2};
+use aisle_messages::{
+    GoalMode, MAX_PATH_POSES, NodeKind, PathPoseMsg, PlanRequest, PlanStatus, RectMsg,
+    SimCommandKind, write_name,
+};
+use anyhow::anyhow;
+use std::collections::VecDeque;
+use std::time::{Duration, Instant};
+
+/// Added around rectangles the mapper ignores, metres.
+const IGNORE_MARGIN: f64 = 0.05;
+
+impl Session {
+    /// Carries out `actions` in order, and those the mission answers a plan with;
+    /// `planner_ns` accumulates the wall time spent waiting for plans.
+    pub(super) fn execute(
+        &mut self,
+        actions: Vec<Action>,
+        config: &RunConfig,
+        planner_timeout: Duration,
+        planner_ns: &mut u64,
+    ) -> Result<(), RunAborted> {
+        let mut queue: VecDeque<Action> = actions.into();
+        while let Some(action) = queue.pop_front() {
+            match action {
+                Action::Plan {
+                    start,
+                    goal,
+                    footprint,
+                    margin,
+                    use_detections,
+                } => {
+                    let t0 = Instant::now();
+                    let result = self.plan(
+                        start,
+                        goal,
+                        footprint,
+                        margin,
+                        use_detections,
+                        planner_timeout,
+                    )?;
+                    *planner_ns += t0.elapsed().as_nanos() as u64;
+                    queue.extend(self.mission.on_plan(self.now_s, self.pose, result));
+                }
+                Action::Follow {
+                    reference,
+                    goal,
+                    footprint,
+                    margin,
+                } => {
+                    self.send_goal(
+                        GoalMode::Follow,
+                        &reference,
+                        goal,
+                        footprint,
+                        margin,
+                        config,
+                    )?;
+                }
+                Action::Rotate {
+                    goal,
+                    footprint,
+                    margin,
+                } => {
+                    self.send_goal(
+                        GoalMode::RotateInPlace,
+                        &[],
+                        goal,
+                        footprint,
+                        margin,
+                        config,
+                    )?;
+                }
+                Action::Attach(name) => {
+                    let index = config.scene.body(&name).map_or(-1, |(i, _)| i as i32);
+                    self.sim_command(SimCommandKind::Attach, Some((index, &name)))?;
+                }
+                Action::Detach => self.sim_command(SimCommandKind::Detach, None)?,
+                Action::MapperControl { ignore, carried } => {
+                    self.mapper_control(ignore, carried, config)?;
+                }
+                Action::Halt => {
+                    self.send_goal(
+                        GoalMode::Idle,
+                        &[],
+                        self.pose,
+                        config.footprints.alone,
+                        0.0,
+                        config,
+                    )?;
+                    self.sim_command(SimCommandKind::Stop, None)?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Asks the planner for a path and waits for the answer; a planner restarted
+    /// meanwhile is asked again. `Err` only when the run cannot go on.
+    fn plan(
+        &mut self,
+        start: Pose2,
+        goal: Pose2,
+        footprint: Footprint,
+        margin: f64,
+        use_detections: bool,
+        timeout: Duration,
+    ) -> Result<Result<Vec<PathPose>, PlanFailure>, RunAborted> {
+        let stamp = self.stamp();
+        let request = |m: &mut PlanRequest| {
+            m.start = start.into();
+            m.goal = goal.into();
+            m.footprint_length = footprint.length;
+            m.footprint_width = footprint.width;
+            m.margin = margin;
+            m.use_detections = use_detections as u32;
+            m.timeout_ms = timeout.as_millis() as u32;
+        };
+        let mut id = self.ports.planner.send(stamp, request)?;
+        let mut started = Instant::now();
+        // The planner bounds its own time; allow it a second more to answer.
+        let limit = timeout + Duration::from_secs(1);
+        loop {
+            if let Some(resp) = self.ports.planner.wait(id, POLL, || {})? {
+                self.book.record("global_planner", resp.solve_ns);
+                let status = PlanStatus::from_u32(resp.status);
+                return Ok(match status {
+                    Some(PlanStatus::Ok) => {
+                        let n = (resp.len as usize).min(MAX_PATH_POSES);
+                        let path: Vec<PathPose> = resp.poses[..n]
+                            .iter()
+                            .filter_map(PathPoseMsg::to_path_pose)
+                            .collect();
+                        if path.len() == n && n > 0 {
+                            Ok(path)
+                        } else {
+                            Err(PlanFailure(
+                                "the planner's path is empty or malformed".into(),
+                            ))
+                        }
+                    }
+                    Some(s) => Err(PlanFailure(format!(
+                        "{} after {} expansions ({:.1} ms)",
+                        plan_status_text(s),
+                        resp.expansions,
+                        resp.solve_ns as f64 / 1e6
+                    ))),
+                    None => Err(PlanFailure(format!("unknown plan status {}", resp.status))),
+                });
+            }
+            self.supervise()?;
+            if self.health.restarted.contains(&NodeKind::GlobalPlanner) {
+                // The planner died with the request: ask its successor.
+                self.health
+                    .restarted
+                    .retain(|k| *k != NodeKind::GlobalPlanner);
+                id = self.ports.planner.send(stamp, request)?;
+                started = Instant::now();
+            }
+            if started.elapsed() > limit {
+                return Ok(Err(PlanFailure(format!(
+                    "the planner did not answer within {:.1} s",
+                    limit.as_secs_f64()
+                ))));
+            }
+        }
+    }
+
+    fn send_goal(
+        &mut self,
+        mode: GoalMode,
+        reference: &[PathPose],
+        goal: Pose2,
+        footprint: Footprint,
+        margin: f64,
+        config: &RunConfig,
+    ) -> Result<(), RunAborted> {
+        if reference.len() > MAX_PATH_POSES {
+            return Err(RunAborted::Error(anyhow!(
+                "reference path of {} poses exceeds the message capacity of {MAX_PATH_POSES}",
+                reference.len()
+            )));
+        }
+        self.goal_id += 1;
+        let id = self.goal_id;
+        let tol = config.mission.goal_tolerance;
+        let stamp = self.stamp();
+        self.health.goal.publish(stamp, |m| {
+            m.goal_id = id;
+            m.mode = mode as u32;
+            m.len = reference.len() as u32;
+            m.footprint_length = footprint.length;
+            m.footprint_width = footprint.width;
+            m.margin = margin;
+            m.goal_tolerance = tol;
+            m.target = goal.into();
+            for (dst, src) in m.reference.iter_mut().zip(reference) {
+                *dst = (*src).into();
+            }
+        })?;
+        Ok(())
+    }
+
+    fn mapper_control(
+        &mut self,
+        ignore: Option<(Pose2, Footprint)>,
+        carried: Option<Footprint>,
+        config: &RunConfig,
+    ) -> Result<(), RunAborted> {
+        let tol = config.mission.goal_tolerance;
+        let carry_margin = tol[0].max(tol[1]) + IGNORE_MARGIN;
+        let stamp = self.stamp();
+        self.health.mapper_control.publish(stamp, |m| {
+            // Margins: range noise on the legs' faces (ignore), and how far the
+            // robot may stand off the rack's centre when it lifts it (carried:
+            // the goal tolerance).
+            if let Some((pose, fp)) = ignore {
+                m.ignore = rect(pose, fp.inflated(IGNORE_MARGIN));
+            }
+            if let Some(fp) = carried {
+                m.carried = rect(Pose2::default(), fp.inflated(carry_margin));
+            }
+        })?;
+        Ok(())
+    }
+
+    pub(super) fn sim_command(
+        &mut self,
+        kind: SimCommandKind,
+        body: Option<(i32, &str)>,
+    ) -> Result<(), RunAborted> {
+        self.command_id += 1;
+        let id = self.command_id;
+        let stamp = self.stamp();
+        self.health.sim_command.publish(stamp, |m| {
+            m.command_id = id;
+            m.kind = kind as u32;
+            m.body_index = body.map_or(-1, |b| b.0);
+            if let Some((_, name)) = body {
+                write_name(&mut m.name, name);
+            }
+        })?;
+        Ok(())
+    }
+
+    /// The header of what the supervisor publishes now: sim time of the current tick.
+    pub(super) fn stamp(&self) -> Stamp {
+        Stamp {
+            stamp_ns: (self.now_s * 1e9).round() as u64,
+            tick: self.ticks,
+            tick_wall_ns: clock::monotonic_ns(),
+        }
+    }
+}
+
+fn rect(pose: Pose2, fp: Footprint) -> RectMsg {
+    RectMsg {
+        pose: pose.into(),
+        length: fp.length,
+        width: fp.width,
+        valid: 1,
+        _pad: [0; 7],
+    }
+}
+
+fn plan_status_text(s: PlanStatus) -> &'static str {
+    match s {
+        PlanStatus::Ok => "ok",
+        PlanStatus::StartOccupied => "the start is in collision",
+        PlanStatus::GoalOccupied => "the goal is in collision",
+        PlanStatus::NoPath => "no path exists",
+        PlanStatus::Timeout => "the search ran out of time",
+        PlanStatus::InvalidRequest => "the request is invalid",
+    }
+}

@@ -1,0 +1,83 @@
+//! The end of a session: the robot stopped whatever happened, the group stopped, and
+//! the run's report assembled from the mission, the latency book and ground truth.
+
+use super::run_config::RunConfig;
+use super::{GRACE, RunAborted, RunOptions, Session};
+use crate::report::{BodyPose, ReferencePath, RunReport};
+use aisle_messages::{SimCommandKind, TickMode, WorldTruth, read_name};
+use std::time::Instant;
+
+impl Session {
+    /// Stops the robot and the group and assembles the report.
+    pub(super) fn finish(
+        &mut self,
+        opts: &RunOptions,
+        config: &RunConfig,
+        wall_start: Instant,
+        outcome: &Result<(), RunAborted>,
+    ) -> RunReport {
+        if let Err(aborted) = outcome {
+            let why = match aborted {
+                RunAborted::Interrupted => "interrupted".to_string(),
+                RunAborted::Error(e) => format!("{e:#}"),
+            };
+            let _ = self.mission.abort(self.now_s, self.pose, why);
+            // Whatever happened, the robot must not keep moving.
+            let _ = self.sim_command(SimCommandKind::Stop, None);
+        }
+        self.health.group.stop(GRACE);
+        self.report(opts, config, wall_start)
+    }
+
+    fn report(&mut self, opts: &RunOptions, config: &RunConfig, wall_start: Instant) -> RunReport {
+        let truth = self.truth.as_ref();
+        let m = &self.mission;
+        RunReport {
+            success: m.succeeded(),
+            failure: m.failure().map(str::to_string),
+            mode: match self.mode {
+                TickMode::Lockstep => "lockstep".into(),
+                TickMode::Realtime => "realtime".into(),
+            },
+            seed: opts.seed,
+            lidar: !opts.lidar_off,
+            sim_time_s: self.now_s,
+            wall_time_s: wall_start.elapsed().as_secs_f64(),
+            ticks: self.ticks,
+            path_length_m: self.path_length,
+            min_clearance_m: truth.map_or(f64::NAN, |t| t.min_clearance),
+            collisions: truth.map_or(0, |t| t.collisions),
+            replans: m.replans_total(),
+            restarts: self.health.restarts.total(),
+            legs: m.results.clone(),
+            latency: self.book.summarise(&config.budgets),
+            driven_path: std::mem::take(&mut self.driven),
+            reference_paths: m
+                .reference_paths
+                .iter()
+                .map(|(leg, poses)| ReferencePath {
+                    leg: *leg,
+                    poses: poses
+                        .iter()
+                        .map(|p| [p.pose.x, p.pose.y, p.pose.theta, p.direction.as_i8() as f64])
+                        .collect(),
+                })
+                .collect(),
+            bodies_final: truth.map(movable_bodies).unwrap_or_default(),
+        }
+    }
+}
+
+/// Where the movable bodies stand, ground truth.
+fn movable_bodies(t: &WorldTruth) -> Vec<BodyPose> {
+    t.bodies[..(t.len as usize).min(t.bodies.len())]
+        .iter()
+        .filter(|b| b.is_static == 0)
+        .map(|b| BodyPose {
+            name: read_name(&b.name).to_string(),
+            x: b.pose.x,
+            y: b.pose.y,
+            theta: b.pose.theta,
+        })
+        .collect()
+}

@@ -1,0 +1,193 @@
+//! Bringing a session up: the iceoryx2 instance and the supervisor's ports, the
+//! mission, and the process group launched with each node's command line. Knows
+//! nothing of ticks or of what the nodes do once they run.
+
+use super::health::NodeHealth;
+use super::retained_state::RetainedState;
+use super::run_config::RunConfig;
+use super::{GRACE, RunOptions, Session};
+use crate::budgets::LatencyBook;
+use crate::launch::{LaunchSpec, ProcessGroup};
+use crate::mission::{Mission, NamedBody};
+use crate::restart::RestartBook;
+use aisle_bus::{Bus, Client, Instance, Publisher, Subscriber};
+use aisle_messages::{
+    MissionStatus, NodeKind, PlanRequest, PlanResponse, RobotState, Tick, TickDone, Trajectory,
+    WorldTruth, topics,
+};
+use anyhow::{Context, bail};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// The ports the tick loop reads and writes (the state publishers a joining node must
+/// see live in [`NodeHealth`]).
+pub(super) struct DataPorts {
+    pub tick: Subscriber<Tick>,
+    pub tick_done_in: Subscriber<TickDone>,
+    pub tick_done: Publisher<TickDone>,
+    pub robot: Subscriber<RobotState>,
+    pub truth: Subscriber<WorldTruth>,
+    pub trajectory: Subscriber<Trajectory>,
+    pub planner: Client<PlanRequest, PlanResponse>,
+    pub status: Publisher<MissionStatus>,
+}
+
+impl DataPorts {
+    fn open(bus: &Bus) -> anyhow::Result<DataPorts> {
+        Ok(DataPorts {
+            tick: bus.subscriber(topics::TICK)?,
+            tick_done_in: bus.subscriber(topics::TICK_DONE)?,
+            tick_done: bus.publisher(topics::TICK_DONE)?,
+            robot: bus.subscriber(topics::ROBOT_STATE)?,
+            truth: bus.subscriber(topics::WORLD_TRUTH)?,
+            trajectory: bus.subscriber(topics::TRAJECTORY)?,
+            planner: Client::new(
+                bus.publisher(topics::PLAN_REQUEST)?,
+                bus.subscriber(topics::PLAN_RESPONSE)?,
+            ),
+            status: bus.publisher(topics::MISSION_STATUS)?,
+        })
+    }
+}
+
+impl Session {
+    /// Creates the instance, opens the ports and launches the group. The ports a
+    /// restarted node must find its old state on are opened after the launch, as the
+    /// supervisor's state publishers are.
+    pub(super) fn start(
+        opts: &RunOptions,
+        config: &RunConfig,
+        instance: &Instance,
+        exe: PathBuf,
+    ) -> anyhow::Result<Session> {
+        let (bus, info) =
+            Bus::create_instance(instance, opts.seed, opts.mode).with_context(|| {
+                format!(
+                    "creating the iceoryx2 instance under {}",
+                    instance.root.display()
+                )
+            })?;
+        let heartbeat = bus.subscriber(topics::HEARTBEAT)?;
+        let ports = DataPorts::open(&bus)?;
+        let mission = new_mission(config);
+        let (group, expected) = launch_group(opts, config, instance, exe)?;
+        let now = Instant::now();
+        let retained = RetainedState::open(&bus)?;
+        let health = NodeHealth {
+            sim_command: bus.publisher(topics::SIM_COMMAND)?,
+            goal: bus.publisher(topics::CONTROLLER_GOAL)?,
+            mapper_control: bus.publisher(topics::MAPPER_CONTROL)?,
+            retained,
+            group,
+            info,
+            heartbeat,
+            bus,
+            restart: config.restart.clone(),
+            restarts: RestartBook::default(),
+            last_seen: NodeKind::LAUNCHED.iter().map(|k| (*k, now)).collect(),
+            ready: Vec::new(),
+            expected,
+            running: false,
+            restarted: Vec::new(),
+            started: now,
+            instance: instance.clone(),
+            last_hygiene: now,
+        };
+        Ok(Session {
+            ports,
+            health,
+            mode: opts.mode,
+            book: LatencyBook::default(),
+            mission,
+            goal_id: 0,
+            command_id: 0,
+            pose: config.mission.start_pose(),
+            now_s: 0.0,
+            ticks: 0,
+            driven: Vec::new(),
+            path_length: 0.0,
+            truth: None,
+            last_progress_s: f64::NEG_INFINITY,
+        })
+    }
+}
+
+/// The mission of this run, with the scene's movable bodies it may name.
+fn new_mission(config: &RunConfig) -> Mission {
+    let bodies = config
+        .scene
+        .movable_bodies()
+        .map(|b| NamedBody {
+            name: b.name.clone(),
+            pose: b.pose,
+            footprint: b.footprint(),
+        })
+        .collect();
+    Mission::new(config.mission.clone(), config.footprints, bodies)
+}
+
+/// Spawns every node of the run (the five, and a recorder when recording); returns the
+/// group and the nodes it expects to become ready.
+fn launch_group(
+    opts: &RunOptions,
+    config: &RunConfig,
+    instance: &Instance,
+    exe: PathBuf,
+) -> anyhow::Result<(ProcessGroup, Vec<NodeKind>)> {
+    let cfg = &config.mission;
+    let start = cfg.start;
+    let dt_ns = cfg.dt_ns();
+    let every = cfg.controller_every();
+    let lidar_off = opts.lidar_off;
+    let crash = opts.crash_on_start.clone();
+    // The recorder runs in the nodes' working directory: give it an absolute path.
+    let record = match &opts.record {
+        Some(p) if p.is_relative() => Some(std::env::current_dir()?.join(p)),
+        other => other.clone(),
+    };
+    let mut expected: Vec<NodeKind> = NodeKind::LAUNCHED.to_vec();
+    if record.is_some() {
+        expected.push(NodeKind::Recorder);
+    }
+    let extra = move |kind: NodeKind| -> Vec<String> {
+        let mut v = vec![
+            "--dt-ns".to_string(),
+            dt_ns.to_string(),
+            "--controller-every".to_string(),
+            every.to_string(),
+            format!("--start={},{},{}", start[0], start[1], start[2]),
+        ];
+        if lidar_off && kind == NodeKind::Lidar {
+            v.push("--lidar-off".into());
+        }
+        if crash.as_deref() == Some(kind.name()) {
+            v.push("--fail-on-start".into());
+        }
+        if kind == NodeKind::Simulator && record.is_some() {
+            v.push("--recorded".into());
+        }
+        if kind == NodeKind::Recorder
+            && let Some(out) = &record
+        {
+            v.push("--out".into());
+            v.push(out.display().to_string());
+        }
+        v
+    };
+    let config_dir = std::fs::canonicalize(&opts.config_dir)
+        .with_context(|| format!("config directory {}", opts.config_dir.display()))?;
+    let spec = LaunchSpec {
+        exe,
+        instance: instance.clone(),
+        config_dir,
+        extra: Box::new(extra),
+    };
+    let mut group = ProcessGroup::new(spec);
+    for kind in expected.iter().copied() {
+        if let Err(e) = group.spawn(kind, false) {
+            group.stop(GRACE);
+            bail!(e);
+        }
+    }
+    Ok((group, expected))
+}

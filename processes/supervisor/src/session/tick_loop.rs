@@ -1,0 +1,220 @@
+//! The tick loop: per simulator tick, wait (in lockstep) until the pipeline has
+//! acknowledged it, read the robot's state and the controller's trajectories, feed the
+//! mission, carry out its actions, publish the mission status and acknowledge the tick.
+//!
+//! In lockstep the supervisor acts on tick k only after lidar, mapper (and, on its
+//! ticks, the controller) have acknowledged k, and the simulator advances only after
+//! the supervisor's own acknowledgement; plans are requested inside that window, so a
+//! run depends on its inputs and seed alone. In realtime nobody waits for anybody.
+
+use super::run_config::RunConfig;
+use super::{RunAborted, RunOptions, Session};
+use crate::budgets::LatencyBook;
+use crate::mission::{Action, ControllerReport};
+use aisle_bus::Stamp;
+use aisle_geometry::Pose2;
+use aisle_messages::{
+    NodeKind, STAGE_CONTROLLER, SimCommandKind, StageStatus, Tick, TickDone, TickMode,
+};
+use std::time::{Duration, Instant};
+
+/// Longest a lockstep tick may take before the run is declared stuck.
+const LOCKSTEP_STALL: Duration = Duration::from_secs(60);
+const REALTIME_STALL: Duration = Duration::from_secs(5);
+
+impl Session {
+    /// Waits for the group, starts the simulator and runs the mission tick by tick
+    /// until it ends; `Err` when the run cannot go on.
+    pub(super) fn drive(
+        &mut self,
+        opts: &RunOptions,
+        config: &RunConfig,
+    ) -> Result<(), RunAborted> {
+        self.wait_ready()?;
+        self.sim_command(SimCommandKind::Start, None)?;
+        let stall = if self.mode == TickMode::Lockstep {
+            LOCKSTEP_STALL
+        } else {
+            REALTIME_STALL
+        };
+        let mut next_tick = 0u64;
+        let mut started = false;
+        let mut kills = config.kills.clone();
+        let planner_timeout = Duration::from_secs_f64(config.mission.planner_timeout_s);
+        loop {
+            let tick = self.next_tick(stall)?;
+            let k = tick.header.tick;
+            if k < next_tick {
+                // A restarted simulator repeats the tick it died in: acknowledge again,
+                // act once.
+                if self.mode == TickMode::Lockstep {
+                    self.acknowledge(&tick, None)?;
+                }
+                continue;
+            }
+            next_tick = k + 1;
+            self.ticks = k;
+            self.now_s = tick.header.stamp_ns as f64 * 1e-9;
+            let controller_tick = tick.stages & STAGE_CONTROLLER != 0;
+            if self.mode == TickMode::Lockstep {
+                // Act after the perception pipeline (and the controller) finished this tick,
+                // so plans see the newest map and the run is repeatable.
+                self.await_tick_acknowledgements(k, controller_tick, stall)?;
+            }
+            self.inject_kills(&mut kills, k);
+            let work = Instant::now();
+            self.observe()?;
+            let mut actions = Vec::new();
+            if !started {
+                started = true;
+                actions = self.mission.start_leg(self.now_s, self.pose);
+            }
+            actions.extend(self.read_trajectories()?);
+            actions.extend(self.mission.on_tick(self.now_s, self.pose));
+            let mut planner_ns = 0;
+            self.execute(actions, config, planner_timeout, &mut planner_ns)?;
+            self.publish_status()?;
+            self.progress(opts);
+            let compute = (work.elapsed().as_nanos() as u64).saturating_sub(planner_ns);
+            self.book.record("supervisor", compute);
+            if self.mode == TickMode::Lockstep {
+                self.acknowledge(&tick, Some(compute))?;
+            }
+            self.health.restarted.clear();
+            if self.mission.is_finished() {
+                return Ok(());
+            }
+        }
+    }
+
+    /// The next tick to act on, while watching the children.
+    fn next_tick(&mut self, stall: Duration) -> Result<Tick, RunAborted> {
+        let tick =
+            self.health
+                .wait_on(&self.ports.tick, stall, "tick from the simulator", |_| true)?;
+        // Realtime: act on the newest tick; lockstep delivers them one by one.
+        let mut tick = tick;
+        while let Some(t) = self.ports.tick.receive()? {
+            tick = *t;
+        }
+        // Ticks may keep coming (realtime) while a node is dead: look every tick.
+        self.supervise()?;
+        Ok(tick)
+    }
+
+    /// Lockstep: waits until lidar, mapper and, on a controller tick, the controller
+    /// have acknowledged tick `k`, recording every acknowledgement's compute time.
+    fn await_tick_acknowledgements(
+        &mut self,
+        k: u64,
+        controller_tick: bool,
+        stall: Duration,
+    ) -> Result<(), RunAborted> {
+        let mut pending: Vec<NodeKind> = vec![NodeKind::Lidar, NodeKind::Mapper];
+        if controller_tick {
+            pending.push(NodeKind::TebController);
+        }
+        while !pending.is_empty() {
+            let book = &mut self.book;
+            let done =
+                self.health
+                    .wait_on(&self.ports.tick_done_in, stall, "acknowledgement", |d| {
+                        record_done(book, d);
+                        d.header.tick == k && pending.iter().any(|p| *p as u32 == d.node)
+                    })?;
+            pending.retain(|p| *p as u32 != done.node);
+        }
+        Ok(())
+    }
+
+    /// The supervisor's own acknowledgement of `tick` (no compute time for a tick it
+    /// acknowledges again without acting).
+    fn acknowledge(&mut self, tick: &Tick, compute: Option<u64>) -> Result<(), RunAborted> {
+        self.ports.tick_done.publish(Stamp::of(&tick.header), |m| {
+            m.node = NodeKind::Supervisor as u32;
+            m.status = StageStatus::Done as u32;
+            if let Some(compute) = compute {
+                m.compute_ns = compute;
+            }
+        })?;
+        Ok(())
+    }
+
+    /// Fault injection: a node killed at a known tick, restarted as after a crash.
+    /// (Realtime may skip the very tick: the first tick at or after it counts.)
+    fn inject_kills(&mut self, kills: &mut Vec<(NodeKind, u64)>, k: u64) {
+        kills.retain(|(kind, at)| {
+            if *at > k {
+                return true;
+            }
+            tracing::warn!("killing `{}` at tick {k}, as --kill asks", kind.name());
+            self.health.group.kill(*kind);
+            false
+        });
+    }
+
+    /// Late acknowledgements, the robot's pose (and the distance driven), ground truth.
+    fn observe(&mut self) -> Result<(), RunAborted> {
+        while let Some(d) = self.ports.tick_done_in.receive()? {
+            record_done(&mut self.book, &d);
+        }
+        if let Some(rs) = self.ports.robot.latest()? {
+            let pose: Pose2 = rs.pose.into();
+            if !self.driven.is_empty() {
+                self.path_length += pose.distance(&self.pose);
+            }
+            self.pose = pose;
+            self.driven
+                .push([rs.header.stamp_ns as f64 * 1e-9, pose.x, pose.y, pose.theta]);
+        }
+        if let Some(t) = self.ports.truth.latest()? {
+            self.truth = Some(*t);
+        }
+        Ok(())
+    }
+
+    /// Every trajectory since the last tick: its end-to-end latency, and for the
+    /// current goal the controller's report to the mission.
+    fn read_trajectories(&mut self) -> Result<Vec<Action>, RunAborted> {
+        let mut actions = Vec::new();
+        while let Some(traj) = self.ports.trajectory.receive()? {
+            let e2e = traj
+                .header
+                .publish_wall_ns
+                .saturating_sub(traj.header.tick_wall_ns);
+            self.book.record("end_to_end", e2e);
+            if traj.goal_id == self.goal_id && traj.goal_id != 0 {
+                let n = (traj.len as usize).min(traj.commands.len());
+                let increasing = traj.commands[..n].windows(2).all(|w| w[1].t > w[0].t);
+                tracing::debug!(
+                    "t = {:.1} s goal {}: exit flag {}, reached {}, {} commands, first (v {:.3}, w {:.3}), {} iterations",
+                    self.now_s,
+                    traj.goal_id,
+                    traj.exit_flag,
+                    traj.reached_goal,
+                    n,
+                    traj.commands[0].v,
+                    traj.commands[0].w,
+                    traj.iterations
+                );
+                let report = ControllerReport {
+                    reached_goal: traj.reached_goal != 0,
+                    exit_flag: traj.exit_flag,
+                    timestamps_increasing: increasing,
+                };
+                actions.extend(self.mission.on_controller(self.now_s, self.pose, report));
+            }
+        }
+        Ok(actions)
+    }
+}
+
+fn record_done(book: &mut LatencyBook, d: &TickDone) {
+    // Idle acknowledgements (the controller between its ticks) are not work.
+    if let Some(kind) = NodeKind::from_u32(d.node)
+        && kind != NodeKind::Supervisor
+        && d.status != StageStatus::Idle as u32
+    {
+        book.record(kind.name(), d.compute_ns);
+    }
+}
