@@ -22,6 +22,7 @@ mod error;
 mod instance;
 mod node;
 mod port;
+mod raw;
 mod request;
 pub mod signals;
 
@@ -32,4 +33,5 @@ pub use error::BusError;
 pub use instance::{Instance, MAX_ROOT_AND_PREFIX};
 pub use node::NodeError;
 pub use port::{Publisher, Received, Stamp, Subscriber, WaitOutcome, message_bytes};
+pub use raw::{RawPublisher, RawSubscriber};
 pub use request::{Client, Correlated};

@@ -159,4 +159,7 @@ struct Session {
     path_length: f64,
     truth: Option<WorldTruth>,
     last_progress_s: f64,
+    /// Whose acknowledgements a lockstep tick waits for (`config/graph.toml`).
+    graph: aisle_node::Graph,
+    awaited: aisle_node::tick::Awaited,
 }

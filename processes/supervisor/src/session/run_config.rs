@@ -1,5 +1,5 @@
 //! Everything a run needs before anything is launched: the checked config directory,
-//! the scene, mission, budgets, footprints and restart policy, and the parsed fault
+//! the scene, mission, budgets, footprints, restart policy and graph, and the parsed fault
 //! injections. Loading fails before a single process exists.
 
 use super::RunOptions;
@@ -9,6 +9,7 @@ use crate::mission::{Footprints, MissionConfig};
 use crate::restart::RestartConfig;
 use aisle_config::scene::Scene;
 use aisle_messages::NodeKind;
+use aisle_node::Graph;
 use anyhow::{anyhow, bail};
 
 /// The configuration of one run, loaded and checked.
@@ -20,6 +21,8 @@ pub(super) struct RunConfig {
     pub mission: MissionConfig,
     pub budgets: Budgets,
     pub footprints: Footprints,
+    /// Who launches, acknowledges and retains what (`config/graph.toml`).
+    pub graph: Graph,
 }
 
 impl RunConfig {
@@ -39,6 +42,7 @@ impl RunConfig {
             carrying_margin: f.carrying.margin,
         };
         let restart = RestartConfig::load(&files.restart)?;
+        let graph = Graph::load_dir(&opts.config_dir)?;
         let kills = opts
             .kill
             .iter()
@@ -56,6 +60,7 @@ impl RunConfig {
             mission,
             budgets,
             footprints,
+            graph,
         })
     }
 }

@@ -15,6 +15,7 @@ use aisle_messages::{
     MissionStatus, NodeKind, PlanRequest, PlanResponse, RobotState, Tick, TickDone, Trajectory,
     WorldTruth, topics,
 };
+use aisle_node::tick::Awaited;
 use anyhow::{Context, bail};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -72,7 +73,7 @@ impl Session {
         let mission = new_mission(config);
         let (group, expected) = launch_group(opts, config, instance, exe)?;
         let now = Instant::now();
-        let retained = RetainedState::open(&bus)?;
+        let retained = RetainedState::open(&bus, &config.graph)?;
         let health = NodeHealth {
             sim_command: bus.publisher(topics::SIM_COMMAND)?,
             goal: bus.publisher(topics::CONTROLLER_GOAL)?,
@@ -84,7 +85,7 @@ impl Session {
             bus,
             restart: config.restart.clone(),
             restarts: RestartBook::default(),
-            last_seen: NodeKind::LAUNCHED.iter().map(|k| (*k, now)).collect(),
+            last_seen: expected.iter().map(|k| (*k, now)).collect(),
             ready: Vec::new(),
             expected,
             running: false,
@@ -108,6 +109,8 @@ impl Session {
             path_length: 0.0,
             truth: None,
             last_progress_s: f64::NEG_INFINITY,
+            graph: config.graph.clone(),
+            awaited: Awaited::new(),
         })
     }
 }
@@ -145,7 +148,7 @@ fn launch_group(
         Some(p) if p.is_relative() => Some(std::env::current_dir()?.join(p)),
         other => other.clone(),
     };
-    let mut expected: Vec<NodeKind> = NodeKind::LAUNCHED.to_vec();
+    let mut expected: Vec<NodeKind> = config.graph.launched().collect();
     if record.is_some() {
         expected.push(NodeKind::Recorder);
     }

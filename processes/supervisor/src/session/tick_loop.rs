@@ -13,9 +13,7 @@ use crate::budgets::LatencyBook;
 use crate::mission::{Action, ControllerReport};
 use aisle_bus::Stamp;
 use aisle_geometry::Pose2;
-use aisle_messages::{
-    NodeKind, STAGE_CONTROLLER, SimCommandKind, StageStatus, Tick, TickDone, TickMode,
-};
+use aisle_messages::{NodeKind, SimCommandKind, StageStatus, Tick, TickDone, TickMode};
 use std::time::{Duration, Instant};
 
 /// Longest a lockstep tick may take before the run is declared stuck.
@@ -55,11 +53,10 @@ impl Session {
             next_tick = k + 1;
             self.ticks = k;
             self.now_s = tick.header.stamp_ns as f64 * 1e-9;
-            let controller_tick = tick.stages & STAGE_CONTROLLER != 0;
             if self.mode == TickMode::Lockstep {
                 // Act after the perception pipeline (and the controller) finished this tick,
                 // so plans see the newest map and the run is repeatable.
-                self.await_tick_acknowledgements(k, controller_tick, stall)?;
+                self.await_tick_acknowledgements(k, tick.stages, stall)?;
             }
             self.inject_kills(&mut kills, k);
             let work = Instant::now();
@@ -102,27 +99,26 @@ impl Session {
         Ok(tick)
     }
 
-    /// Lockstep: waits until lidar, mapper and, on a controller tick, the controller
-    /// have acknowledged tick `k`, recording every acknowledgement's compute time.
+    /// Lockstep: waits until the nodes the graph puts before the supervisor (`after`:
+    /// lidar, mapper and, on a controller tick, the controller) have acknowledged tick
+    /// `k`, recording every acknowledgement's compute time.
     fn await_tick_acknowledgements(
         &mut self,
         k: u64,
-        controller_tick: bool,
+        stages: u32,
         stall: Duration,
     ) -> Result<(), RunAborted> {
-        let mut pending: Vec<NodeKind> = vec![NodeKind::Lidar, NodeKind::Mapper];
-        if controller_tick {
-            pending.push(NodeKind::TebController);
-        }
-        while !pending.is_empty() {
-            let book = &mut self.book;
+        self.awaited
+            .expect(k, self.graph.waits_of(NodeKind::Supervisor, stages));
+        while !self.awaited.is_complete() {
+            let (book, awaited) = (&mut self.book, &self.awaited);
             let done =
                 self.health
                     .wait_on(&self.ports.tick_done_in, stall, "acknowledgement", |d| {
                         record_done(book, d);
-                        d.header.tick == k && pending.iter().any(|p| *p as u32 == d.node)
+                        awaited.matches(d)
                     })?;
-            pending.retain(|p| *p as u32 != done.node);
+            self.awaited.take(&done);
         }
         Ok(())
     }
