@@ -10,9 +10,9 @@
 
 use crate::{PlanErrorKind, PlanRequest, Planner, PlannerConfig};
 use aisle_bus::{Bus, NodeArgs, NodeError, Stamp, WaitOutcome, clock};
-use aisle_geometry::{Footprint, GridView, OCCUPIED_DETECTED, Pose2};
+use aisle_geometry::{Footprint, OCCUPIED_DETECTED, Pose2};
 use aisle_messages::{
-    MAX_PATH_POSES, NodeKind, NodeState, OccupancyGrid, PlanRequest as PlanRequestMsg,
+    GridCopy, MAX_PATH_POSES, NodeKind, NodeState, OccupancyGrid, PlanRequest as PlanRequestMsg,
     PlanResponse, PlanStatus, services,
 };
 use std::time::Duration;
@@ -22,52 +22,15 @@ pub const DEFAULT_MAX_EXPANSIONS: u32 = 100_000;
 /// Wall-clock bound when a request leaves `timeout_ms` at 0.
 pub const DEFAULT_TIMEOUT_MS: u32 = 5_000;
 
-/// The planner's copy of the newest global map.
-struct MapCopy {
-    origin: (f64, f64),
-    resolution: f64,
-    width: usize,
-    height: usize,
-    cells: Vec<u8>,
-    /// The same cells with detections cleared (static map only).
-    static_cells: Vec<u8>,
-}
-
-impl MapCopy {
-    fn update(&mut self, m: &OccupancyGrid) -> bool {
-        let n = (m.width as usize).saturating_mul(m.height as usize);
-        if n == 0 || n > m.cells.len() {
-            return false;
-        }
-        self.origin = (m.origin_x, m.origin_y);
-        self.resolution = m.resolution;
-        self.width = m.width as usize;
-        self.height = m.height as usize;
-        self.cells.clear();
-        self.cells.extend_from_slice(&m.cells[..n]);
-        self.static_cells.clear();
-        self.static_cells.extend(
-            self.cells
-                .iter()
-                .map(|&c| if c == OCCUPIED_DETECTED { 0 } else { c }),
-        );
-        true
+/// Takes `m` as the newest global map, with its static layer (detections cleared);
+/// a grid that is not a valid map is ignored and the previous one kept.
+fn update(map: &mut GridCopy, static_map: &mut GridCopy, m: &OccupancyGrid) -> bool {
+    if m.view().is_err() {
+        return false;
     }
-
-    fn view(&self, with_detections: bool) -> GridView<'_> {
-        GridView {
-            origin_x: self.origin.0,
-            origin_y: self.origin.1,
-            resolution: self.resolution,
-            width: self.width,
-            height: self.height,
-            cells: if with_detections {
-                &self.cells
-            } else {
-                &self.static_cells
-            },
-        }
-    }
+    map.copy_from(m);
+    static_map.copy_mapped(map, |c| if c == OCCUPIED_DETECTED { 0 } else { c });
+    true
 }
 
 fn status_of(kind: &PlanErrorKind) -> PlanStatus {
@@ -82,14 +45,8 @@ fn status_of(kind: &PlanErrorKind) -> PlanStatus {
 
 pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
     let path = args.config_dir.join("planner.toml");
-    let (cfg, text) = aisle_config::load_toml::<PlannerConfig>(&path)
+    let cfg = aisle_config::load::<PlannerConfig>(&path)
         .map_err(|e| NodeError::setup("global_planner", e))?;
-    cfg.validate().map_err(|e| {
-        NodeError::setup(
-            "global_planner",
-            aisle_config::ConfigError::invalid(&path, &text, e.key, e.reason.clone()),
-        )
-    })?;
     let mut planner = Planner::new(cfg).map_err(|e| NodeError::setup("global_planner", e))?;
 
     let (bus, _) = Bus::join(
@@ -103,14 +60,7 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
     let mut heartbeat = bus.heartbeat()?;
     heartbeat.send(NodeState::Starting, "waiting for the global map")?;
 
-    let mut map = MapCopy {
-        origin: (0.0, 0.0),
-        resolution: 1.0,
-        width: 0,
-        height: 0,
-        cells: Vec::new(),
-        static_cells: Vec::new(),
-    };
+    let (mut map, mut static_map) = (GridCopy::default(), GridCopy::default());
     // Ready once there is a map to plan on.
     loop {
         let hb = &mut heartbeat;
@@ -122,7 +72,7 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
             },
         )?;
         if let (WaitOutcome::Matched, Some(m)) = (outcome, sample)
-            && map.update(&m)
+            && update(&mut map, &mut static_map, &m)
         {
             break;
         }
@@ -143,7 +93,7 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
         };
         let req = *req;
         if let Some(m) = maps.latest()? {
-            map.update(&m);
+            update(&mut map, &mut static_map, &m);
         }
         let started = clock::monotonic_ns();
         let timeout_ms = if req.timeout_ms == 0 {
@@ -163,10 +113,17 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
                 req.max_expansions
             },
         };
+        let layer = if req.use_detections != 0 {
+            &map
+        } else {
+            &static_map
+        };
+        // Only valid grids are taken (`update`), so this holds from the first map on.
+        let view = layer
+            .view()
+            .map_err(|e| NodeError::Protocol(format!("global_planner: map: {e}")))?;
         let result =
-            planner.plan_with_stop(&request, &map.view(req.use_detections != 0), &mut || {
-                clock::monotonic_ns() > deadline
-            });
+            planner.plan_with_stop(&request, &view, &mut || clock::monotonic_ns() > deadline);
         let solve_ns = clock::monotonic_ns() - started;
         responses.publish(Stamp::of(&req.header), |m| {
             m.request_id = req.request_id;

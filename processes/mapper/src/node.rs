@@ -37,18 +37,9 @@ fn resume(bus: &Bus, mapper: &mut Mapper) -> Result<Option<u64>, NodeError> {
     let wait = Duration::from_secs(1);
     let globals = bus.subscriber::<OccupancyGrid>(services::GLOBAL_MAP)?;
     if let (WaitOutcome::Matched, Some(g)) = globals.wait_for(wait, |_| true, || {})? {
-        let n = (g.width as usize)
-            .saturating_mul(g.height as usize)
-            .min(g.cells.len());
-        let view = GridView::new(
-            g.origin_x,
-            g.origin_y,
-            g.resolution,
-            g.width as usize,
-            g.height as usize,
-            &g.cells[..n],
-        )
-        .map_err(|e| NodeError::Protocol(format!("mapper: published global map: {e}")))?;
+        let view = g
+            .view()
+            .map_err(|e| NodeError::Protocol(format!("mapper: published global map: {e}")))?;
         mapper
             .restore_detections(&view, g.version)
             .map_err(|e| NodeError::Protocol(format!("mapper: resuming: {e}")))?;
@@ -88,7 +79,8 @@ fn publish_grid(
 
 pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
     let mapper_toml = args.config_dir.join("mapper.toml");
-    let cfg = MapConfig::load(&mapper_toml).map_err(|e| NodeError::setup("mapper", e))?;
+    let cfg =
+        aisle_config::load::<MapConfig>(&mapper_toml).map_err(|e| NodeError::setup("mapper", e))?;
     let static_map =
         load_static_map(&cfg, &args.config_dir.join("warehouse.toml")).map_err(|e| {
             NodeError::setup(format!("mapper: static map ({})", mapper_toml.display()), e)

@@ -10,49 +10,14 @@
 
 use crate::{Band, Goal, Mode, Snapshot, StepOutput, TebConfig, TebController};
 use aisle_bus::{Bus, NodeArgs, NodeError, StageTimer, Stamp, TickFollower, WaitOutcome};
-use aisle_geometry::{Footprint, GridView, PathPose, Pose2};
+use aisle_geometry::{Footprint, PathPose, Pose2};
 use aisle_messages::{
-    ControllerBand, ControllerGoal, GoalMode, MAX_COMMANDS, NodeKind, OccupancyGrid, RobotState,
-    STAGE_CONTROLLER, StageStatus, TickMode, Trajectory, services,
+    ControllerBand, ControllerGoal, GoalMode, GridCopy, MAX_COMMANDS, NodeKind, OccupancyGrid,
+    RobotState, STAGE_CONTROLLER, StageStatus, TickMode, Trajectory, services,
 };
 use std::time::Duration;
 
 const MAP_TIMEOUT: Duration = Duration::from_secs(30);
-
-/// An owned copy of a local map message.
-#[derive(Default)]
-struct MapCopy {
-    origin: (f64, f64),
-    resolution: f64,
-    width: usize,
-    height: usize,
-    cells: Vec<u8>,
-}
-
-impl MapCopy {
-    fn copy_from(&mut self, m: &OccupancyGrid) {
-        let n = (m.width as usize)
-            .saturating_mul(m.height as usize)
-            .min(m.cells.len());
-        self.origin = (m.origin_x, m.origin_y);
-        self.resolution = m.resolution;
-        self.width = m.width as usize;
-        self.height = m.height as usize;
-        self.cells.clear();
-        self.cells.extend_from_slice(&m.cells[..n]);
-    }
-
-    fn view(&self) -> Result<GridView<'_>, aisle_geometry::GridError> {
-        GridView::new(
-            self.origin.0,
-            self.origin.1,
-            self.resolution,
-            self.width,
-            self.height,
-            &self.cells,
-        )
-    }
-}
 
 /// A restarted controller takes its task back (the newest goal) and, in lockstep when
 /// its last band belongs to that goal, the band itself. Returns the tick of that band.
@@ -147,7 +112,8 @@ fn goal_of(msg: &ControllerGoal) -> Option<Result<Goal, String>> {
 
 pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
     let path = args.config_dir.join("teb.toml");
-    let cfg = TebConfig::load(&path).map_err(|e| NodeError::setup("teb_controller", e))?;
+    let cfg = aisle_config::load::<TebConfig>(&path)
+        .map_err(|e| NodeError::setup("teb_controller", e))?;
     let mut teb = TebController::new(cfg)
         .map_err(|e| NodeError::setup(format!("teb_controller: {}", path.display()), e))?;
 
@@ -179,10 +145,7 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
     let mut velocity = (0.0, 0.0);
     // The local map in use, copied out of shared memory (a realtime step may have to
     // reuse it when no newer one arrived). Capacity is reserved once.
-    let mut map = MapCopy {
-        cells: Vec::with_capacity(aisle_messages::MAX_GRID_CELLS),
-        ..MapCopy::default()
-    };
+    let mut map = GridCopy::with_capacity(aisle_messages::MAX_GRID_CELLS);
     loop {
         let tick = ticks.wait_tick_refreshing(|| {
             let _ = trajectory.update_connections();
@@ -247,7 +210,7 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
         let start_ns = tick.header.stamp_ns;
         let now_s = start_ns as f64 * 1e-9;
         let goal_id = task.goal_id;
-        let step: Option<Result<&StepOutput, String>> = match (map.cells.is_empty(), task.active) {
+        let step: Option<Result<&StepOutput, String>> = match (map.is_empty(), task.active) {
             (_, false) => None,
             (true, true) => Some(Err("no local map yet".into())),
             (false, true) => match map.view() {
