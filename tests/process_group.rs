@@ -262,7 +262,8 @@ fn map_export_writes_the_static_map_as_a_ros_map() {
         String::from_utf8_lossy(&out.stderr)
     );
     let read = aisle_mapper::ros_map::read_ros_map(&out_dir.join("warehouse.yaml")).unwrap();
-    let cfg = aisle_mapper::MapConfig::load(&config_dir().join("mapper.toml")).unwrap();
+    let cfg =
+        aisle_config::load::<aisle_mapper::MapConfig>(&config_dir().join("mapper.toml")).unwrap();
     let expected =
         aisle_mapper::load_static_map(&cfg, &config_dir().join("warehouse.toml")).unwrap();
     assert_eq!((read.width, read.height), (expected.width, expected.height));

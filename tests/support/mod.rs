@@ -13,10 +13,7 @@ pub fn aisle() -> &'static str {
 }
 
 pub fn config_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../config")
-        .canonicalize()
-        .unwrap()
+    aisle_config::testing::shipped_dir().canonicalize().unwrap()
 }
 
 /// A fresh directory for one test (reports, missions) and a run directory for its

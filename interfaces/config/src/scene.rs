@@ -310,7 +310,7 @@ mod shipped_scene {
 
     #[test]
     fn the_shipped_warehouse_loads_and_matches_the_scenario() {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/warehouse.toml");
+        let path = crate::testing::shipped("warehouse.toml");
         let s = Scene::load(&path).unwrap();
         assert_eq!(
             s.movable_bodies().count(),

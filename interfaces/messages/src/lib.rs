@@ -13,11 +13,13 @@
 
 mod catalog;
 mod common;
+mod grid;
 mod layout;
 pub mod topics;
 
 pub use catalog::*;
 pub use common::*;
+pub use grid::GridCopy;
 pub use layout::{
     FieldLayout, Message, ZeroedValid, all_layouts, schema_hash, schema_hash_hex, zeroed_box,
 };

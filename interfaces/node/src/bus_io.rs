@@ -163,7 +163,6 @@ impl<'b> BusIo<'b> {
                 }
                 return Ok(newest);
             }
-            self.on_slice();
         }
     }
 }

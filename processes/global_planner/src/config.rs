@@ -1,16 +1,11 @@
 //! Planner configuration (`config/planner.toml`): serde with unknown keys refused,
 //! defaults from the seed and MATLAB's `plannerHybridAStar`, and a `validate()` whose
-//! error names the offending key. Knows nothing of files; the node loads the TOML.
+//! error names the offending key. Knows nothing of files: load it with
+//! `aisle_config::load::<PlannerConfig>`.
 
+use aisle_config::checks::{at_least, in_range, positive};
+use aisle_config::{InvalidKey, Validate};
 use serde::{Deserialize, Serialize};
-
-/// A configuration value that parsed but makes no sense.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("planner config key `{key}`: {reason}")]
-pub struct ConfigInvalid {
-    pub key: &'static str,
-    pub reason: String,
-}
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -96,43 +91,10 @@ impl Default for PlannerConfig {
     }
 }
 
-fn positive(key: &'static str, v: f64) -> Result<(), ConfigInvalid> {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err(ConfigInvalid {
-            key,
-            reason: format!("must be a positive number, got {v}"),
-        })
-    }
-}
-
-fn at_least(key: &'static str, v: f64, min: f64) -> Result<(), ConfigInvalid> {
-    if v.is_finite() && v >= min {
-        Ok(())
-    } else {
-        Err(ConfigInvalid {
-            key,
-            reason: format!("must be a number >= {min}, got {v}"),
-        })
-    }
-}
-
-fn int_range(key: &'static str, v: u32, lo: u32, hi: u32) -> Result<(), ConfigInvalid> {
-    if (lo..=hi).contains(&v) {
-        Ok(())
-    } else {
-        Err(ConfigInvalid {
-            key,
-            reason: format!("must be in {lo}..={hi}, got {v}"),
-        })
-    }
-}
-
-impl PlannerConfig {
-    pub fn validate(&self) -> Result<(), ConfigInvalid> {
+impl Validate for PlannerConfig {
+    fn validate(&self) -> Result<(), InvalidKey> {
         positive("min_turning_radius", self.min_turning_radius)?;
-        int_range("heading_bins", self.heading_bins, 8, 720)?;
+        in_range("heading_bins", self.heading_bins, 8, 720)?;
         positive("primitive_length", self.primitive_length)?;
         positive("search_resolution", self.search_resolution)?;
         positive("heuristic_resolution", self.heuristic_resolution)?;
@@ -141,13 +103,13 @@ impl PlannerConfig {
         at_least("direction_switch_cost", self.direction_switch_cost, 0.0)?;
         at_least("steering_penalty", self.steering_penalty, 0.0)?;
         positive("rotation_cost", self.rotation_cost)?;
-        int_range(
+        in_range(
             "rotation_step_bins",
             self.rotation_step_bins,
             1,
             self.heading_bins / 2,
         )?;
-        int_range(
+        in_range(
             "analytic_expansion_interval",
             self.analytic_expansion_interval,
             1,
@@ -158,32 +120,32 @@ impl PlannerConfig {
             self.analytic_interval_per_metre,
             0.0,
         )?;
-        int_range("analytic_candidates", self.analytic_candidates, 1, 48)?;
+        in_range("analytic_candidates", self.analytic_candidates, 1, 48)?;
         positive("validation_distance", self.validation_distance)?;
         positive("sweep_cover", self.sweep_cover)?;
         if self.sweep_cover > 0.5 * self.validation_distance {
-            return Err(ConfigInvalid {
-                key: "sweep_cover",
-                reason: "must not exceed half of validation_distance".into(),
-            });
+            return Err(InvalidKey::new(
+                "sweep_cover",
+                "must not exceed half of validation_distance",
+            ));
         }
         let w = self.smoothing_weight_data;
         let s = self.smoothing_weight_smooth;
         at_least("smoothing_weight_data", w, 0.0)?;
         at_least("smoothing_weight_smooth", s, 0.0)?;
         if w + 2.0 * s > 1.0 {
-            return Err(ConfigInvalid {
-                key: "smoothing_weight_smooth",
-                reason: "weight_data + 2 * weight_smooth must be <= 1 for a stable update".into(),
-            });
+            return Err(InvalidKey::new(
+                "smoothing_weight_smooth",
+                "weight_data + 2 * weight_smooth must be <= 1 for a stable update",
+            ));
         }
-        int_range(
+        in_range(
             "smoothing_iterations",
             self.smoothing_iterations,
             0,
             100_000,
         )?;
-        int_range("stop_check_interval", self.stop_check_interval, 1, u32::MAX)?;
+        in_range("stop_check_interval", self.stop_check_interval, 1, u32::MAX)?;
         Ok(())
     }
 }
@@ -196,9 +158,8 @@ mod tests {
     #[test]
     fn default_is_valid_and_matches_the_shipped_file() {
         PlannerConfig::default().validate().unwrap();
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/planner.toml");
-        let text = std::fs::read_to_string(&path).unwrap();
-        let cfg: PlannerConfig = aisle_config::parse_toml(&path, &text).unwrap();
+        let path = aisle_config::testing::shipped("planner.toml");
+        let cfg = aisle_config::load::<PlannerConfig>(&path).unwrap();
         assert_eq!(cfg, PlannerConfig::default());
     }
 
@@ -212,8 +173,7 @@ mod tests {
         c.reverse_cost = 3.0;
         c.min_turning_radius = f64::NAN;
         assert_eq!(c.validate().unwrap_err().key, "min_turning_radius");
-        let typo: Result<PlannerConfig, _> =
-            aisle_config::parse_toml(Path::new("x.toml"), "heading_binz = 3\n");
+        let typo = aisle_config::parse::<PlannerConfig>(Path::new("x.toml"), "heading_binz = 3\n");
         assert!(typo.is_err());
     }
 }

@@ -16,7 +16,7 @@
 //! use aisle_global_planner::{PlanRequest, Planner, PlannerConfig};
 //! use aisle_geometry::{Footprint, GridMap, Pose2};
 //! # fn demo(map: &GridMap) -> Result<(), Box<dyn std::error::Error>> {
-//! let (cfg, _text) = aisle_config::load_toml::<PlannerConfig>("config/planner.toml".as_ref())?;
+//! let cfg = aisle_config::load::<PlannerConfig>("config/planner.toml".as_ref())?;
 //! let mut planner = Planner::new(cfg)?; // validates; keep it for every request
 //! let req = PlanRequest {
 //!     start: Pose2::new(0.0, 0.0, 0.0),
@@ -47,7 +47,7 @@ pub mod seed_map;
 mod smooth;
 pub mod validate;
 
-pub use config::{ConfigInvalid, PlannerConfig};
+pub use config::PlannerConfig;
 pub use error::{InvalidInput, PlanError, PlanErrorKind, PlanStats};
 pub use search::{Plan, PlanRequest, Planner};
 pub use validate::{PathViolation, check_turning_radius, validate_path};

@@ -11,9 +11,9 @@
 
 use crate::{PlanErrorKind, PlanRequest, Planner, PlannerConfig};
 use aisle_bus::{NodeArgs, NodeError, Stamp, clock};
-use aisle_geometry::{Footprint, GridView, OCCUPIED_DETECTED, Pose2};
+use aisle_geometry::{Footprint, OCCUPIED_DETECTED, Pose2};
 use aisle_messages::{
-    MAX_PATH_POSES, NodeKind, OccupancyGrid, PlanRequest as PlanRequestMsg, PlanResponse,
+    GridCopy, MAX_PATH_POSES, NodeKind, OccupancyGrid, PlanRequest as PlanRequestMsg, PlanResponse,
     PlanStatus, StageStatus, Topic, topics,
 };
 use aisle_node::{Cycle, Io, RunContext, Stage};
@@ -24,52 +24,15 @@ pub const DEFAULT_MAX_EXPANSIONS: u32 = 100_000;
 /// Wall-clock bound when a request leaves `timeout_ms` at 0.
 pub const DEFAULT_TIMEOUT_MS: u32 = 5_000;
 
-/// The planner's copy of the newest global map.
-struct MapCopy {
-    origin: (f64, f64),
-    resolution: f64,
-    width: usize,
-    height: usize,
-    cells: Vec<u8>,
-    /// The same cells with detections cleared (static map only).
-    static_cells: Vec<u8>,
-}
-
-impl MapCopy {
-    fn update(&mut self, m: &OccupancyGrid) -> bool {
-        let n = (m.width as usize).saturating_mul(m.height as usize);
-        if n == 0 || n > m.cells.len() {
-            return false;
-        }
-        self.origin = (m.origin_x, m.origin_y);
-        self.resolution = m.resolution;
-        self.width = m.width as usize;
-        self.height = m.height as usize;
-        self.cells.clear();
-        self.cells.extend_from_slice(&m.cells[..n]);
-        self.static_cells.clear();
-        self.static_cells.extend(
-            self.cells
-                .iter()
-                .map(|&c| if c == OCCUPIED_DETECTED { 0 } else { c }),
-        );
-        true
+/// Takes `m` as the newest global map, with its static layer (detections cleared);
+/// a grid that is not a valid map is ignored and the previous one kept.
+fn update(map: &mut GridCopy, static_map: &mut GridCopy, m: &OccupancyGrid) -> bool {
+    if m.view().is_err() {
+        return false;
     }
-
-    fn view(&self, with_detections: bool) -> GridView<'_> {
-        GridView {
-            origin_x: self.origin.0,
-            origin_y: self.origin.1,
-            resolution: self.resolution,
-            width: self.width,
-            height: self.height,
-            cells: if with_detections {
-                &self.cells
-            } else {
-                &self.static_cells
-            },
-        }
-    }
+    map.copy_from(m);
+    static_map.copy_mapped(map, |c| if c == OCCUPIED_DETECTED { 0 } else { c });
+    true
 }
 
 fn status_of(kind: &PlanErrorKind) -> PlanStatus {
@@ -85,32 +48,22 @@ fn status_of(kind: &PlanErrorKind) -> PlanStatus {
 /// The planner as a stage: one cycle per request, in arrival order, on the newest map.
 pub struct PlannerStage {
     planner: Planner,
-    map: MapCopy,
+    /// The newest global map, and its static layer (detections cleared).
+    map: GridCopy,
+    static_map: GridCopy,
 }
 
 impl PlannerStage {
     /// Loads `planner.toml` from `config_dir`.
     pub fn new(config_dir: &std::path::Path) -> Result<PlannerStage, NodeError> {
         let path = config_dir.join("planner.toml");
-        let (cfg, text) = aisle_config::load_toml::<PlannerConfig>(&path)
+        let cfg = aisle_config::load::<PlannerConfig>(&path)
             .map_err(|e| NodeError::setup("global_planner", e))?;
-        cfg.validate().map_err(|e| {
-            NodeError::setup(
-                "global_planner",
-                aisle_config::ConfigError::invalid(&path, &text, e.key, e.reason.clone()),
-            )
-        })?;
         let planner = Planner::new(cfg).map_err(|e| NodeError::setup("global_planner", e))?;
         Ok(PlannerStage {
             planner,
-            map: MapCopy {
-                origin: (0.0, 0.0),
-                resolution: 1.0,
-                width: 0,
-                height: 0,
-                cells: Vec::new(),
-                static_cells: Vec::new(),
-            },
+            map: GridCopy::default(),
+            static_map: GridCopy::default(),
         })
     }
 
@@ -169,7 +122,7 @@ impl Stage for PlannerStage {
         loop {
             if let Some(m) =
                 io.wait_for(topics::GLOBAL_MAP, Duration::from_millis(200), |_| true)?
-                && self.map.update(&m)
+                && update(&mut self.map, &mut self.static_map, &m)
             {
                 return Ok(());
             }
@@ -179,7 +132,7 @@ impl Stage for PlannerStage {
     fn process(&mut self, req: &PlanRequestMsg, io: &impl Io) -> Result<Cycle, NodeError> {
         let req = *req;
         if let Some(m) = io.latest(topics::GLOBAL_MAP)? {
-            self.map.update(&m);
+            update(&mut self.map, &mut self.static_map, &m);
         }
         let started = clock::monotonic_ns();
         let timeout_ms = if req.timeout_ms == 0 {
@@ -189,11 +142,18 @@ impl Stage for PlannerStage {
         };
         let deadline = started + timeout_ms as u64 * 1_000_000;
         let request = Self::request_of(&req);
-        let result = self.planner.plan_with_stop(
-            &request,
-            &self.map.view(req.use_detections != 0),
-            &mut || clock::monotonic_ns() > deadline,
-        );
+        let layer = if req.use_detections != 0 {
+            &self.map
+        } else {
+            &self.static_map
+        };
+        // Only valid grids are taken (`update`), so this holds from the first map on.
+        let view = layer
+            .view()
+            .map_err(|e| NodeError::Protocol(format!("global_planner: map: {e}")))?;
+        let result = self
+            .planner
+            .plan_with_stop(&request, &view, &mut || clock::monotonic_ns() > deadline);
         let solve_ns = clock::monotonic_ns() - started;
         io.publish(topics::PLAN_RESPONSE, Stamp::of(&req.header), |m| {
             fill_response(m, &req, &result, solve_ns)

@@ -13,7 +13,7 @@
 //! stop callback (for a wall deadline) that is asked every few hundred expansions.
 
 use crate::collision::FootprintChecker;
-use crate::config::{ConfigInvalid, PlannerConfig};
+use crate::config::PlannerConfig;
 use crate::distance_map::DistanceMap;
 use crate::error::{InvalidInput, PlanError, PlanErrorKind, PlanStats};
 use crate::heuristic::GridHeuristic;
@@ -22,6 +22,7 @@ use crate::motion::Motion;
 use crate::reeds_shepp::Candidates;
 use crate::sampling::{append_motion, finish};
 use crate::smooth::{SmoothParams, smooth_path};
+use aisle_config::{InvalidKey, Validate};
 use aisle_geometry::{Footprint, GridView, PathPose, Pose2, path_length, wrap_angle};
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
@@ -117,7 +118,7 @@ pub struct Planner {
 }
 
 impl Planner {
-    pub fn new(cfg: PlannerConfig) -> Result<Self, ConfigInvalid> {
+    pub fn new(cfg: PlannerConfig) -> Result<Self, InvalidKey> {
         cfg.validate()?;
         Ok(Self {
             model: Model::new(&cfg),

@@ -511,7 +511,7 @@ fn walled_in_goal_behind_a_too_narrow_door_ends_within_the_budget() {
 }
 
 fn scene() -> aisle_config::scene::Scene {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/warehouse.toml");
+    let path = aisle_config::testing::shipped("warehouse.toml");
     aisle_config::scene::Scene::load(&path).unwrap()
 }
 

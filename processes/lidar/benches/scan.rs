@@ -7,10 +7,9 @@ use aisle_geometry::Pose2;
 use aisle_lidar::{LidarConfig, ParryReference, Raycaster, SensorPose};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use std::hint::black_box;
-use std::path::Path;
 
 fn warehouse() -> Scene {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/warehouse.toml");
+    let p = aisle_config::testing::shipped("warehouse.toml");
     Scene::load(&p).expect("shipped warehouse")
 }
 

@@ -5,7 +5,6 @@ use crate::*;
 use aisle_config::scene::{Body, BoxPart, Scene};
 use aisle_geometry::Pose2;
 use std::f64::consts::{FRAC_PI_2, PI};
-use std::path::Path;
 
 fn quiet() -> LidarConfig {
     let mut c = LidarConfig::default();
@@ -32,7 +31,7 @@ fn floor_box(name: &str, x: f64, y: f64, size: [f64; 3]) -> Body {
 }
 
 fn warehouse() -> Scene {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/warehouse.toml");
+    let p = aisle_config::testing::shipped("warehouse.toml");
     Scene::load(&p).unwrap()
 }
 

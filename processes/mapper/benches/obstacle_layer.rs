@@ -8,13 +8,12 @@ use aisle_mapper::synthetic::{boxes_of_scene, cast_cloud};
 use aisle_mapper::{BeamGeometry, IgnoreZone, MapConfig, Mapper, OrganizedCloud, Scan, SensorPose};
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
-use std::path::Path;
 
 const ROBOT: Footprint = Footprint::new(0.508, 0.43);
 const RACK: Footprint = Footprint::new(0.88, 0.8);
 
 fn config_dir() -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config")
+    aisle_config::testing::shipped_dir()
 }
 
 struct Case {

@@ -3,10 +3,12 @@
 //!
 //! Defaults are the seed's numbers (MATLAB `binaryOccupancyMap(scenario,
 //! MapHeightLimits=[0 5], GridOriginInLocal=[-5 -10], MapSize=[20 30])` at its default
-//! 10 cells/m, a 1 m boundary band, a 15 m local map, a 12 m lidar). `validate` names the
-//! offending key. Knows nothing of the scene, the lidar's scan pattern or the bus.
+//! 10 cells/m, a 1 m boundary band, a 15 m local map, a 12 m lidar). Load it with
+//! `aisle_config::load::<MapConfig>`; `validate` names the offending key. Knows nothing
+//! of the scene, the lidar's scan pattern or the bus.
 
-use aisle_config::ConfigError;
+use aisle_config::checks::{interval, non_negative, positive};
+use aisle_config::{InvalidKey, Validate};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -75,7 +77,7 @@ pub struct MapConfig {
     /// Width of the occupied band along the map edge, metres.
     pub boundary_band: f64,
     /// A ROS map_server YAML to use as the static map instead of the scene. A relative
-    /// path is taken from the directory of `mapper.toml` by [`MapConfig::load`].
+    /// path is taken from the directory of `mapper.toml` by `aisle_config::load`.
     pub ros_map: Option<PathBuf>,
     pub local: LocalMapConfig,
     pub obstacles: ObstacleConfig,
@@ -96,41 +98,8 @@ impl Default for MapConfig {
     }
 }
 
-/// A value that parsed but cannot be used; `key` is the dotted TOML key.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("key `{key}`: {reason}")]
-pub struct InvalidConfig {
-    pub key: &'static str,
-    pub reason: String,
-}
-
-fn invalid(key: &'static str, reason: impl Into<String>) -> InvalidConfig {
-    InvalidConfig {
-        key,
-        reason: reason.into(),
-    }
-}
-
-fn positive(key: &'static str, v: f64) -> Result<(), InvalidConfig> {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err(invalid(
-            key,
-            format!("must be positive and finite, got {v}"),
-        ))
-    }
-}
-
-fn interval(key: &'static str, v: [f64; 2]) -> Result<(), InvalidConfig> {
-    if v.iter().all(|x| x.is_finite()) && v[0] < v[1] {
-        Ok(())
-    } else {
-        Err(invalid(
-            key,
-            format!("must be finite [low, high] with low < high, got {v:?}"),
-        ))
-    }
+fn invalid(key: &str, reason: impl Into<String>) -> InvalidKey {
+    InvalidKey::new(key, reason)
 }
 
 /// Whether `metres * cells_per_metre` is a whole number of cells (within rounding).
@@ -145,7 +114,14 @@ impl MapConfig {
         1.0 / self.cells_per_metre
     }
 
-    pub fn validate(&self) -> Result<(), InvalidConfig> {
+    /// Cells of the local map along each side.
+    pub fn local_cells(&self) -> usize {
+        (self.local.size * self.cells_per_metre).round().max(1.0) as usize
+    }
+}
+
+impl Validate for MapConfig {
+    fn validate(&self) -> Result<(), InvalidKey> {
         positive("cells_per_metre", self.cells_per_metre)?;
         if self.cells_per_metre > MAX_CELLS_PER_METRE {
             return Err(invalid(
@@ -181,12 +157,7 @@ impl MapConfig {
             }
         }
         interval("height_limits", self.height_limits)?;
-        if !(self.boundary_band.is_finite() && self.boundary_band >= 0.0) {
-            return Err(invalid(
-                "boundary_band",
-                format!("must be >= 0, got {}", self.boundary_band),
-            ));
-        }
+        non_negative("boundary_band", self.boundary_band)?;
         if 2.0 * self.boundary_band >= self.size[0].min(self.size[1]) {
             return Err(invalid(
                 "boundary_band",
@@ -202,38 +173,25 @@ impl MapConfig {
         }
         interval("obstacles.height_band", self.obstacles.height_band)?;
         positive("obstacles.max_range", self.obstacles.max_range)?;
-        if !(self.obstacles.ignore_margin.is_finite() && self.obstacles.ignore_margin >= 0.0) {
-            return Err(invalid(
-                "obstacles.ignore_margin",
-                format!("must be >= 0, got {}", self.obstacles.ignore_margin),
-            ));
-        }
+        non_negative("obstacles.ignore_margin", self.obstacles.ignore_margin)?;
         Ok(())
     }
 
-    /// Reads, validates and resolves `ros_map` against the file's directory.
-    pub fn load(path: &Path) -> Result<MapConfig, ConfigError> {
-        let (mut cfg, text) = aisle_config::load_toml::<MapConfig>(path)?;
-        cfg.validate()
-            .map_err(|e| ConfigError::invalid(path, &text, e.key, e.reason))?;
-        if let Some(p) = &cfg.ros_map
+    /// `ros_map` is taken from the directory of `mapper.toml`.
+    fn relative_to(&mut self, dir: &Path) {
+        if let Some(p) = &self.ros_map
             && p.is_relative()
         {
-            let dir = path.parent().unwrap_or_else(|| Path::new("."));
-            cfg.ros_map = Some(dir.join(p));
+            self.ros_map = Some(dir.join(p));
         }
-        Ok(cfg)
-    }
-
-    /// Cells of the local map along each side.
-    pub fn local_cells(&self) -> usize {
-        (self.local.size * self.cells_per_metre).round().max(1.0) as usize
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    use aisle_config::{load, testing::shipped};
 
     #[test]
     fn defaults_are_the_seed_and_valid() {
@@ -248,8 +206,7 @@ mod tests {
 
     #[test]
     fn shipped_file_equals_the_defaults() {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/mapper.toml");
-        let c = MapConfig::load(&path).unwrap();
+        let c = load::<MapConfig>(&shipped("mapper.toml")).unwrap();
         assert_eq!(c, MapConfig::default());
     }
 
@@ -263,14 +220,14 @@ mod tests {
             "cells_per_metre = 10.0\n[obstacles]\nheight_band = [1.2, 0.05]\n",
         )
         .unwrap();
-        let e = MapConfig::load(&path).unwrap_err().to_string();
+        let e = load::<MapConfig>(&path).unwrap_err().to_string();
         assert!(e.contains("mapper.toml:3:"), "{e}");
         assert!(e.contains("obstacles.height_band"), "{e}");
         std::fs::write(&path, "cells_per_metre = 10.25\n").unwrap();
-        let e = MapConfig::load(&path).unwrap_err().to_string();
+        let e = load::<MapConfig>(&path).unwrap_err().to_string();
         assert!(e.contains("key `size`"), "{e}");
         std::fs::write(&path, "cell_per_metre = 10.0\n").unwrap();
-        let e = MapConfig::load(&path).unwrap_err().to_string();
+        let e = load::<MapConfig>(&path).unwrap_err().to_string();
         assert!(e.contains("mapper.toml:1:"), "{e}");
         std::fs::remove_dir_all(&dir).ok();
     }

@@ -15,7 +15,7 @@ pub enum MapError {
 
     /// A `MapConfig` value makes no sense (the key is named).
     #[error("mapper config: {0}")]
-    InvalidConfig(#[from] crate::config::InvalidConfig),
+    InvalidConfig(#[from] aisle_config::InvalidKey),
 
     #[error("grid: {0}")]
     Grid(#[from] GridError),

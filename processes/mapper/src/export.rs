@@ -27,7 +27,7 @@ pub fn export_scene_map(
     dir: &Path,
     name: &str,
 ) -> Result<ExportedMap, MapError> {
-    cfg.validate()?;
+    aisle_config::Validate::validate(cfg)?;
     let grid = static_map_from_scene(scene, cfg)?;
     std::fs::create_dir_all(dir).map_err(|source| MapError::Io {
         file: dir.to_path_buf(),
@@ -45,7 +45,7 @@ pub fn export_from_config_dir(
     dir: &Path,
     name: &str,
 ) -> Result<ExportedMap, MapError> {
-    let cfg = MapConfig::load(&config_dir.join("mapper.toml"))?;
+    let cfg = aisle_config::load::<MapConfig>(&config_dir.join("mapper.toml"))?;
     let scene = Scene::load(&config_dir.join("warehouse.toml"))?;
     export_scene_map(&scene, &cfg, dir, name)
 }
@@ -56,7 +56,7 @@ mod tests {
     use crate::ros_map::read_ros_map;
 
     fn config_dir() -> PathBuf {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config")
+        aisle_config::testing::shipped_dir()
     }
 
     #[test]
@@ -68,7 +68,7 @@ mod tests {
         assert_eq!(files.yaml, dir.join("map.yaml"));
         assert_eq!(files.image, dir.join("map.pgm"));
         let back = read_ros_map(&files.yaml).unwrap();
-        let cfg = MapConfig::load(&config_dir().join("mapper.toml")).unwrap();
+        let cfg = aisle_config::load::<MapConfig>(&config_dir().join("mapper.toml")).unwrap();
         let scene = Scene::load(&config_dir().join("warehouse.toml")).unwrap();
         let want = static_map_from_scene(&scene, &cfg).unwrap();
         assert_eq!((back.width, back.height), (200, 300));

@@ -12,7 +12,7 @@
 //! The library knows nothing of iceoryx2 or clocks; the `node` module adapts it to the bus.
 //!
 //! How a node drives it:
-//! 1. Once: `MapConfig::load(mapper.toml)`, `load_static_map(&cfg, warehouse.toml)` (the
+//! 1. Once: `aisle_config::load::<MapConfig>(mapper.toml)`, `load_static_map(&cfg, warehouse.toml)` (the
 //!    scene, or the ROS map named in the config), `Mapper::new(map, &cfg, beams)`; or
 //!    `Mapper::from_files` for the three at once.
 //! 2. Every cloud: build a [`Scan`] (borrowed points, sensor pose, robot pose, robot
@@ -42,7 +42,7 @@ pub mod static_map;
 pub mod synthetic;
 
 pub use cloud::{BeamGeometry, MAX_CLOUD_POINTS, OrganizedCloud, SensorPose};
-pub use config::{InvalidConfig, LocalMapConfig, MAX_GRID_SIDE, MapConfig, ObstacleConfig};
+pub use config::{LocalMapConfig, MAX_GRID_SIDE, MapConfig, ObstacleConfig};
 pub use error::MapError;
 pub use export::{ExportedMap, export_from_config_dir, export_scene_map};
 pub use local_map::LocalMapInfo;

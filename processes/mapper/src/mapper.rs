@@ -44,7 +44,7 @@ impl Mapper {
         cfg: &MapConfig,
         beams: BeamGeometry,
     ) -> Result<Self, MapError> {
-        cfg.validate()?;
+        aisle_config::Validate::validate(cfg)?;
         let mut static_map = static_map;
         for c in &mut static_map.cells {
             if *c != FREE {
@@ -84,7 +84,7 @@ impl Mapper {
         scene_path: &Path,
         beams: BeamGeometry,
     ) -> Result<(Self, MapConfig), MapError> {
-        let cfg = MapConfig::load(mapper_toml)?;
+        let cfg = aisle_config::load::<MapConfig>(mapper_toml)?;
         let map = load_static_map(&cfg, scene_path)?;
         Ok((Self::new(map, &cfg, beams)?, cfg))
     }
@@ -201,7 +201,7 @@ mod tests {
     use std::f64::consts::FRAC_PI_2;
 
     fn shipped() -> (MapConfig, std::path::PathBuf) {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/warehouse.toml");
+        let path = aisle_config::testing::shipped("warehouse.toml");
         (MapConfig::default(), path)
     }
 
@@ -323,7 +323,7 @@ mod tests {
     #[test]
     fn integrating_and_copying_out_allocate_nothing() {
         let (_, scene_path) = shipped();
-        let cfg_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/mapper.toml");
+        let cfg_path = aisle_config::testing::shipped("mapper.toml");
         let (mut m, _) =
             Mapper::from_files(&cfg_path, &scene_path, BeamGeometry::default()).unwrap();
         let scene = Scene::load(&scene_path).unwrap();

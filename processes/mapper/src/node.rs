@@ -73,7 +73,8 @@ impl MapperStage {
     /// Loads `mapper.toml`, the static map, the robot and the beam pattern.
     pub fn new(config_dir: &std::path::Path) -> Result<MapperStage, NodeError> {
         let mapper_toml = config_dir.join("mapper.toml");
-        let cfg = MapConfig::load(&mapper_toml).map_err(|e| NodeError::setup("mapper", e))?;
+        let cfg = aisle_config::load::<MapConfig>(&mapper_toml)
+            .map_err(|e| NodeError::setup("mapper", e))?;
         let static_map =
             load_static_map(&cfg, &config_dir.join("warehouse.toml")).map_err(|e| {
                 NodeError::setup(format!("mapper: static map ({})", mapper_toml.display()), e)
@@ -207,18 +208,9 @@ impl Stage for MapperStage {
     /// integrating a scan twice changes nothing, so the newest one is simply redone.
     fn restore(&mut self, io: &impl Io, _ctx: &RunContext) -> Result<(), NodeError> {
         if let Some(g) = io.retained(topics::GLOBAL_MAP, Duration::from_secs(1))? {
-            let n = (g.width as usize)
-                .saturating_mul(g.height as usize)
-                .min(g.cells.len());
-            let view = GridView::new(
-                g.origin_x,
-                g.origin_y,
-                g.resolution,
-                g.width as usize,
-                g.height as usize,
-                &g.cells[..n],
-            )
-            .map_err(|e| NodeError::Protocol(format!("mapper: published global map: {e}")))?;
+            let view = g
+                .view()
+                .map_err(|e| NodeError::Protocol(format!("mapper: published global map: {e}")))?;
             self.mapper
                 .restore_detections(&view, g.version)
                 .map_err(|e| NodeError::Protocol(format!("mapper: resuming: {e}")))?;

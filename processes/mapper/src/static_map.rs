@@ -137,7 +137,7 @@ mod tests {
     use std::path::Path;
 
     fn shipped_scene() -> Scene {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/warehouse.toml");
+        let path = aisle_config::testing::shipped("warehouse.toml");
         Scene::load(&path).unwrap()
     }
 

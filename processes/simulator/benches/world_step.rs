@@ -2,17 +2,16 @@
 //! every body, robot alone and carrying a rack.
 
 use aisle_config::scene::Scene;
+use aisle_config::testing::shipped;
 use aisle_geometry::Pose2;
 use aisle_robot::load_robot;
 use aisle_simulator::{DEFAULT_DT_NS, World};
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
-use std::path::Path;
 
 fn world_at(start: Pose2) -> World {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let (cfg, model) = load_robot(&root.join("config/robot.toml")).expect("robot");
-    let scene = Scene::load(&root.join("config/warehouse.toml")).expect("scene");
+    let (cfg, model) = load_robot(&shipped("robot.toml")).expect("robot");
+    let scene = Scene::load(&shipped("warehouse.toml")).expect("scene");
     World::new_at(&scene, &model, &cfg, start).expect("world")
 }
 

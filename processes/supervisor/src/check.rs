@@ -3,7 +3,6 @@
 
 use crate::budgets::Budgets;
 use crate::mission::MissionConfig;
-use aisle_config::ConfigError;
 use aisle_config::scene::Scene;
 use std::path::{Path, PathBuf};
 
@@ -50,16 +49,6 @@ impl ConfigFiles {
     }
 }
 
-/// Loads the planner's config with the error naming file, line and key.
-pub fn load_planner_config(
-    path: &Path,
-) -> Result<aisle_global_planner::PlannerConfig, ConfigError> {
-    let (cfg, text) = aisle_config::load_toml::<aisle_global_planner::PlannerConfig>(path)?;
-    cfg.validate()
-        .map_err(|e| ConfigError::invalid(path, &text, e.key, e.reason.clone()))?;
-    Ok(cfg)
-}
-
 /// Validates every config file in `dir`; returns the files checked. A `.toml` file that
 /// aisle does not read is an error too (a typo in a file name would otherwise be
 /// silently ignored).
@@ -71,11 +60,13 @@ pub fn check_dir(dir: &Path) -> Result<Vec<PathBuf>, String> {
     let scene = Scene::load(&files.scene).map_err(|e| e.to_string())?;
     let (_, model) = aisle_robot::load_robot(&files.robot).map_err(|e| e.to_string())?;
     aisle_config::load::<aisle_robot::LidarConfig>(&files.lidar).map_err(|e| e.to_string())?;
-    let map_cfg = aisle_mapper::MapConfig::load(&files.mapper).map_err(|e| e.to_string())?;
+    let map_cfg =
+        aisle_config::load::<aisle_mapper::MapConfig>(&files.mapper).map_err(|e| e.to_string())?;
     aisle_mapper::load_static_map(&map_cfg, &files.scene)
         .map_err(|e| format!("{}: {e}", files.mapper.display()))?;
-    load_planner_config(&files.planner).map_err(|e| e.to_string())?;
-    aisle_teb_controller::TebConfig::load(&files.teb).map_err(|e| e.to_string())?;
+    aisle_config::load::<aisle_global_planner::PlannerConfig>(&files.planner)
+        .map_err(|e| e.to_string())?;
+    aisle_config::load::<aisle_teb_controller::TebConfig>(&files.teb).map_err(|e| e.to_string())?;
     MissionConfig::load(&files.mission, &scene).map_err(|e| e.to_string())?;
     Budgets::load(&files.budgets).map_err(|e| e.to_string())?;
     crate::restart::RestartConfig::load(&files.restart).map_err(|e| e.to_string())?;
@@ -111,7 +102,7 @@ mod tests {
     use super::*;
 
     fn shipped() -> PathBuf {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config")
+        aisle_config::testing::shipped_dir()
     }
 
     #[test]

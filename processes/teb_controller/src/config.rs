@@ -5,13 +5,13 @@
 //! [0.2 0.2 0.2]) and MATLAB controllerTEB's defaults for what the seed leaves open
 //! (ReferenceDeltaTime 0.3, MaxAcceleration [2.4 4.8], reverse limit = forward limit).
 //! The footprint and the safety margin are not here: they change with the load and
-//! arrive with each [`crate::Goal`]. Knows nothing of the bus or of the map.
+//! arrive with each [`crate::Goal`]. Load it with `aisle_config::load::<TebConfig>`.
+//! Knows nothing of the bus or of the map.
 
-use crate::TebError;
-use aisle_config::ConfigError;
+use aisle_config::checks::{non_negative, positive};
+use aisle_config::{InvalidKey, Validate};
 use aisle_geometry::Direction;
 use serde::Deserialize;
-use std::path::Path;
 
 /// Kinematic limits of the differential-drive base.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -189,27 +189,8 @@ pub struct TebConfig {
     pub homotopy: HomotopyConfig,
 }
 
-fn bad(key: &'static str, reason: impl Into<String>) -> TebError {
-    TebError::InvalidConfig {
-        key,
-        reason: reason.into(),
-    }
-}
-
-fn positive(key: &'static str, v: f64) -> Result<(), TebError> {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err(bad(key, format!("{v} is not a positive number")))
-    }
-}
-
-fn non_negative(key: &'static str, v: f64) -> Result<(), TebError> {
-    if v.is_finite() && v >= 0.0 {
-        Ok(())
-    } else {
-        Err(bad(key, format!("{v} is not a non-negative number")))
-    }
+fn bad(key: &str, reason: impl Into<String>) -> InvalidKey {
+    InvalidKey::new(key, reason)
 }
 
 impl LimitsConfig {
@@ -223,20 +204,8 @@ impl LimitsConfig {
     }
 }
 
-impl TebConfig {
-    /// Reads and validates `path`; errors name the file, line and key.
-    pub fn load(path: &Path) -> Result<TebConfig, ConfigError> {
-        let (cfg, text) = aisle_config::load_toml::<TebConfig>(path)?;
-        cfg.validate().map_err(|e| match e {
-            TebError::InvalidConfig { key, reason } => {
-                ConfigError::invalid(path, &text, key, reason)
-            }
-            other => ConfigError::invalid(path, &text, "?", other.to_string()),
-        })?;
-        Ok(cfg)
-    }
-
-    pub fn validate(&self) -> Result<(), TebError> {
+impl Validate for TebConfig {
+    fn validate(&self) -> Result<(), InvalidKey> {
         let l = &self.limits;
         positive("limits.max_velocity", l.max_velocity)?;
         positive("limits.max_reverse_velocity", l.max_reverse_velocity)?;
@@ -312,7 +281,9 @@ impl TebConfig {
         }
         Ok(())
     }
+}
 
+impl TebConfig {
     /// Distance along the reference the band reaches ahead of the robot, m.
     pub fn look_ahead_distance(&self) -> f64 {
         self.limits.max_velocity * self.band.look_ahead_time
@@ -322,43 +293,30 @@ impl TebConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::TebError;
 
     #[test]
     fn defaults_are_valid_and_bad_values_name_their_key() {
         TebConfig::default().validate().unwrap();
         let mut c = TebConfig::default();
         c.limits.max_velocity = f64::NAN;
-        assert!(matches!(
-            c.validate(),
-            Err(TebError::InvalidConfig {
-                key: "limits.max_velocity",
-                ..
-            })
-        ));
+        assert_eq!(c.validate().unwrap_err().key, "limits.max_velocity");
         let mut c = TebConfig::default();
         c.solver.relative_tolerance = 1.0;
-        assert!(matches!(
-            c.validate(),
-            Err(TebError::InvalidConfig {
-                key: "solver.relative_tolerance",
-                ..
-            })
-        ));
+        assert_eq!(c.validate().unwrap_err().key, "solver.relative_tolerance");
         let mut c = TebConfig::default();
         c.band.dt_hysteresis = 0.5;
-        assert!(matches!(
-            c.validate(),
-            Err(TebError::InvalidConfig {
-                key: "band.dt_hysteresis",
-                ..
-            })
-        ));
+        let e = crate::TebController::new(c).err().unwrap();
+        assert!(
+            matches!(&e, TebError::InvalidConfig(k) if k.key == "band.dt_hysteresis"),
+            "{e}"
+        );
     }
 
     #[test]
     fn shipped_file_equals_defaults() {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/teb.toml");
-        let cfg = TebConfig::load(&path).unwrap();
+        let path = aisle_config::testing::shipped("teb.toml");
+        let cfg = aisle_config::load::<TebConfig>(&path).unwrap();
         assert_eq!(cfg, TebConfig::default());
     }
 

@@ -77,7 +77,7 @@ fn check_inputs(
 
 impl TebController {
     pub fn new(cfg: TebConfig) -> Result<TebController, crate::TebError> {
-        cfg.validate()?;
+        aisle_config::Validate::validate(&cfg)?;
         let n = cfg.band.max_poses;
         Ok(TebController {
             cfg,

@@ -6,8 +6,8 @@
 /// Why the controller refused a configuration, a goal, a restored band or a step input.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum TebError {
-    #[error("config key `{key}`: {reason}")]
-    InvalidConfig { key: &'static str, reason: String },
+    #[error("config {0}")]
+    InvalidConfig(#[from] aisle_config::InvalidKey),
     #[error("goal: {0}")]
     InvalidGoal(String),
     #[error("band: {0}")]

@@ -8,7 +8,7 @@
 //! reached-goal and exit flag. Knows nothing of the bus (the `node` module adapts it).
 //!
 //! ```text
-//! let mut teb = TebController::new(TebConfig::load(Path::new("config/teb.toml"))?)?;
+//! let mut teb = TebController::new(aisle_config::load::<TebConfig>(Path::new("config/teb.toml"))?)?;
 //! teb.set_goal(&Goal { reference, footprint, margin: 0.1, mode: Mode::Follow })?;
 //! // every 0.5 s of sim time:
 //! let out = teb.step(pose, (v, w), t_now, &local_map)?;   // &StepOutput, reused buffers

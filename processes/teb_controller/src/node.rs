@@ -11,50 +11,15 @@
 
 use crate::{Band, Goal, Mode, Snapshot, StepOutput, TebConfig, TebController};
 use aisle_bus::{NodeArgs, NodeError, StageTimer, Stamp};
-use aisle_geometry::{Footprint, GridView, PathPose, Pose2};
+use aisle_geometry::{Footprint, PathPose, Pose2};
 use aisle_messages::{
-    ControllerBand, ControllerGoal, GoalMode, MAX_COMMANDS, NodeKind, OccupancyGrid,
-    STAGE_CONTROLLER, StageStatus, Tick, TickMode, Topic, Trajectory, topics,
+    ControllerBand, ControllerGoal, GoalMode, GridCopy, MAX_COMMANDS, NodeKind, STAGE_CONTROLLER,
+    StageStatus, Tick, TickMode, Topic, Trajectory, topics,
 };
 use aisle_node::{Cycle, Io, RunContext, Stage};
 use std::time::Duration;
 
 const MAP_TIMEOUT: Duration = Duration::from_secs(30);
-
-/// An owned copy of a local map message.
-#[derive(Default)]
-struct MapCopy {
-    origin: (f64, f64),
-    resolution: f64,
-    width: usize,
-    height: usize,
-    cells: Vec<u8>,
-}
-
-impl MapCopy {
-    fn copy_from(&mut self, m: &OccupancyGrid) {
-        let n = (m.width as usize)
-            .saturating_mul(m.height as usize)
-            .min(m.cells.len());
-        self.origin = (m.origin_x, m.origin_y);
-        self.resolution = m.resolution;
-        self.width = m.width as usize;
-        self.height = m.height as usize;
-        self.cells.clear();
-        self.cells.extend_from_slice(&m.cells[..n]);
-    }
-
-    fn view(&self) -> Result<GridView<'_>, aisle_geometry::GridError> {
-        GridView::new(
-            self.origin.0,
-            self.origin.1,
-            self.resolution,
-            self.width,
-            self.height,
-            &self.cells,
-        )
-    }
-}
 
 /// The task the controller is on, by goal id.
 struct Task {
@@ -100,14 +65,15 @@ pub struct ControllerStage {
     velocity: (f64, f64),
     /// The local map in use, copied out of shared memory (a realtime step may have to
     /// reuse it when no newer one arrived). Capacity is reserved once.
-    map: MapCopy,
+    map: GridCopy,
 }
 
 impl ControllerStage {
     /// Loads `teb.toml` from `config_dir`.
     pub fn new(config_dir: &std::path::Path, start: Pose2) -> Result<ControllerStage, NodeError> {
         let path = config_dir.join("teb.toml");
-        let cfg = TebConfig::load(&path).map_err(|e| NodeError::setup("teb_controller", e))?;
+        let cfg = aisle_config::load::<TebConfig>(&path)
+            .map_err(|e| NodeError::setup("teb_controller", e))?;
         let teb = TebController::new(cfg)
             .map_err(|e| NodeError::setup(format!("teb_controller: {}", path.display()), e))?;
         Ok(ControllerStage {
@@ -120,10 +86,7 @@ impl ControllerStage {
             last_done: None,
             pose: start,
             velocity: (0.0, 0.0),
-            map: MapCopy {
-                cells: Vec::with_capacity(aisle_messages::MAX_GRID_CELLS),
-                ..MapCopy::default()
-            },
+            map: GridCopy::with_capacity(aisle_messages::MAX_GRID_CELLS),
         })
     }
 
@@ -170,7 +133,7 @@ impl ControllerStage {
 
     /// One TEB step at `now_s`; `None` without a task.
     fn step(&mut self, now_s: f64) -> Option<Result<&StepOutput, String>> {
-        match (self.map.cells.is_empty(), self.task.active) {
+        match (self.map.is_empty(), self.task.active) {
             (_, false) => None,
             (true, true) => Some(Err("no local map yet".into())),
             (false, true) => match self.map.view() {

@@ -157,7 +157,7 @@ mod tests {
     #[test]
     fn the_warehouse_map_round_trips() {
         let dir = TempDir::new("roundtrip");
-        let scene_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/warehouse.toml");
+        let scene_path = aisle_config::testing::shipped("warehouse.toml");
         let scene = Scene::load(&scene_path).unwrap();
         for cpm in [10.0, 20.0] {
             let cfg = MapConfig {

@@ -1,20 +1,17 @@
 use super::*;
+use aisle_config::testing::shipped;
 use aisle_robot::{RobotConfig, RobotModel};
 use std::f64::consts::FRAC_PI_2;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 const DT: u64 = DEFAULT_DT_NS;
 
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
 fn robot() -> (RobotConfig, RobotModel) {
-    aisle_robot::load_robot(&root().join("config/robot.toml")).unwrap()
+    aisle_robot::load_robot(&shipped("robot.toml")).unwrap()
 }
 
 fn warehouse() -> Scene {
-    Scene::load(&root().join("config/warehouse.toml")).unwrap()
+    Scene::load(&shipped("warehouse.toml")).unwrap()
 }
 
 fn warehouse_at(start: Pose2) -> World {
