@@ -174,7 +174,7 @@ mod tests {
     #[test]
     fn a_tick_gives_one_organised_cloud_from_the_robot_pose() {
         use aisle_node::testing::MemIo;
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config");
+        let dir = aisle_config::testing::shipped_dir();
         let mut stage = LidarStage::new(&dir, Pose2::new(0.0, 0.0, 0.0), false).unwrap();
         let io = MemIo::new();
         let ctx = RunContext {

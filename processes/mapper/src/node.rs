@@ -268,7 +268,7 @@ mod tests {
 
     #[test]
     fn each_cloud_gives_a_local_map_and_a_repeat_only_an_acknowledgement() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config");
+        let dir = aisle_config::testing::shipped_dir();
         let mut stage = MapperStage::new(&dir).unwrap();
         let io = MemIo::new();
         stage.start(&io, &ctx()).unwrap();
@@ -295,7 +295,7 @@ mod tests {
 
     #[test]
     fn a_restarted_mapper_takes_its_detections_back() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config");
+        let dir = aisle_config::testing::shipped_dir();
         let mut stage = MapperStage::new(&dir).unwrap();
         let io = MemIo::new();
         let fresh = MemIo::new();

@@ -5,10 +5,9 @@
 //! publication of the controller's trajectory for that tick. This module only keeps and
 //! summarises numbers; it does not read clocks.
 
-use aisle_config::ConfigError;
+use aisle_config::{InvalidKey, Validate};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
-use std::path::Path;
 
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -34,10 +33,9 @@ pub struct Budgets {
     pub end_to_end: EndToEndBudget,
 }
 
-impl Budgets {
-    pub fn load(path: &Path) -> Result<Budgets, ConfigError> {
-        let (b, text) = aisle_config::load_toml::<Budgets>(path)?;
-        let s = &b.stage;
+impl Validate for Budgets {
+    fn validate(&self) -> Result<(), InvalidKey> {
+        let s = &self.stage;
         for (key, v) in [
             ("stage.simulator", s.simulator),
             ("stage.lidar", s.lidar),
@@ -45,20 +43,23 @@ impl Budgets {
             ("stage.teb_controller", s.teb_controller),
             ("stage.global_planner", s.global_planner),
             ("stage.supervisor", s.supervisor),
-            ("end_to_end.tick_to_command", b.end_to_end.tick_to_command),
+            (
+                "end_to_end.tick_to_command",
+                self.end_to_end.tick_to_command,
+            ),
         ] {
             if !(v.is_finite() && v > 0.0) {
-                return Err(ConfigError::invalid(
-                    path,
-                    &text,
+                return Err(InvalidKey::new(
                     key,
                     format!("a budget must be a positive number of milliseconds, got {v}"),
                 ));
             }
         }
-        Ok(b)
+        Ok(())
     }
+}
 
+impl Budgets {
     /// Budget in milliseconds of a named stage.
     pub fn of(&self, stage: &str) -> Option<f64> {
         let s = &self.stage;
@@ -192,8 +193,8 @@ mod tests {
 
     #[test]
     fn the_shipped_budgets_load() {
-        let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/budgets.toml");
-        let b = Budgets::load(&p).unwrap();
+        let p = aisle_config::testing::shipped("budgets.toml");
+        let b = aisle_config::load::<Budgets>(&p).unwrap();
         assert!(b.of("end_to_end").unwrap() > 0.0);
     }
 }

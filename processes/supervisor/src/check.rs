@@ -68,8 +68,9 @@ pub fn check_dir(dir: &Path) -> Result<Vec<PathBuf>, String> {
         .map_err(|e| e.to_string())?;
     aisle_config::load::<aisle_teb_controller::TebConfig>(&files.teb).map_err(|e| e.to_string())?;
     MissionConfig::load(&files.mission, &scene).map_err(|e| e.to_string())?;
-    Budgets::load(&files.budgets).map_err(|e| e.to_string())?;
-    crate::restart::RestartConfig::load(&files.restart).map_err(|e| e.to_string())?;
+    aisle_config::load::<Budgets>(&files.budgets).map_err(|e| e.to_string())?;
+    aisle_config::load::<crate::restart::RestartConfig>(&files.restart)
+        .map_err(|e| e.to_string())?;
     let mut checked: Vec<PathBuf> = files.all().iter().map(|p| p.to_path_buf()).collect();
     checked.push(model.file().to_path_buf());
     // The graph is optional in a config directory (the shipped one stands in).

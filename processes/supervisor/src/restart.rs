@@ -1,11 +1,10 @@
 //! Restart policy (`config/restart.toml`) and the count of restarts against it.
 //! Pure bookkeeping: it is told when a node died and answers whether it may restart.
 
-use aisle_config::ConfigError;
+use aisle_config::{InvalidKey, Validate};
 use aisle_messages::NodeKind;
 use serde::Deserialize;
 use std::collections::BTreeMap;
-use std::path::Path;
 
 #[derive(Debug, Clone, Copy, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -32,45 +31,46 @@ pub struct RestartConfig {
     pub node: BTreeMap<String, PolicyOverride>,
 }
 
-impl RestartConfig {
-    pub fn load(path: &Path) -> Result<RestartConfig, ConfigError> {
-        let (cfg, text) = aisle_config::load_toml::<RestartConfig>(path)?;
-        let bad = |key: String, why: String| ConfigError::invalid(path, &text, &key, why);
-        for (name, o) in &cfg.node {
-            if NodeKind::from_name(name).is_none_or(|k| !NodeKind::LAUNCHED.contains(&k)) {
-                let names: Vec<&str> = NodeKind::LAUNCHED.iter().map(|k| k.name()).collect();
-                return Err(bad(
-                    format!("node.{name}"),
-                    format!("no node `{name}`; nodes are {}", names.join(", ")),
-                ));
-            }
-            let _ = o;
+impl Validate for RestartConfig {
+    fn validate(&self) -> Result<(), InvalidKey> {
+        if let Some(name) = self
+            .node
+            .keys()
+            .find(|n| NodeKind::from_name(n).is_none_or(|k| !NodeKind::LAUNCHED.contains(&k)))
+        {
+            let names: Vec<&str> = NodeKind::LAUNCHED.iter().map(|k| k.name()).collect();
+            return Err(InvalidKey::new(
+                format!("node.{name}"),
+                format!("no node `{name}`; nodes are {}", names.join(", ")),
+            ));
         }
         for kind in NodeKind::LAUNCHED {
-            let p = cfg.policy(kind);
+            let p = self.policy(kind);
             let key = |field: &str| {
-                if cfg.node.contains_key(kind.name()) {
+                if self.node.contains_key(kind.name()) {
                     format!("node.{}.{field}", kind.name())
                 } else {
                     format!("default.{field}")
                 }
             };
             if !(p.window_s.is_finite() && p.window_s > 0.0) {
-                return Err(bad(
+                return Err(InvalidKey::new(
                     key("window_s"),
                     format!("must be a positive number of seconds, got {}", p.window_s),
                 ));
             }
             if !(p.heartbeat_timeout_s.is_finite() && p.heartbeat_timeout_s >= 0.5) {
-                return Err(bad(
+                return Err(InvalidKey::new(
                     key("heartbeat_timeout_s"),
                     format!("must be at least 0.5 s, got {}", p.heartbeat_timeout_s),
                 ));
             }
         }
-        Ok(cfg)
+        Ok(())
     }
+}
 
+impl RestartConfig {
     pub fn policy(&self, kind: NodeKind) -> Policy {
         let d = self.default;
         match self.node.get(kind.name()) {
@@ -135,17 +135,19 @@ mod tests {
 
     #[test]
     fn the_shipped_policy_loads_and_overrides_apply() {
-        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config");
-        let cfg = RestartConfig::load(&dir.join("restart.toml")).unwrap();
+        let shipped = aisle_config::testing::shipped("restart.toml");
+        let cfg = aisle_config::load::<RestartConfig>(&shipped).unwrap();
         assert!(cfg.policy(NodeKind::Lidar).max_restarts >= 1);
         let text = "[default]\nmax_restarts = 1\nwindow_s = 5.0\nheartbeat_timeout_s = 2.0\n[node.lidar]\nmax_restarts = 4\n";
         let p = std::env::temp_dir().join(format!("aisle-restart-{}.toml", std::process::id()));
         std::fs::write(&p, text).unwrap();
-        let cfg = RestartConfig::load(&p).unwrap();
+        let cfg = aisle_config::load::<RestartConfig>(&p).unwrap();
         assert_eq!(cfg.policy(NodeKind::Lidar).max_restarts, 4);
         assert_eq!(cfg.policy(NodeKind::Mapper).max_restarts, 1);
         std::fs::write(&p, text.replace("[node.lidar]", "[node.lidr]")).unwrap();
-        let e = RestartConfig::load(&p).unwrap_err().to_string();
+        let e = aisle_config::load::<RestartConfig>(&p)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("node.lidr"), "{e}");
         let _ = std::fs::remove_file(&p);
     }

@@ -342,7 +342,7 @@ mod tests {
     use aisle_node::testing::MemIo;
 
     fn stage() -> ControllerStage {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config");
+        let dir = aisle_config::testing::shipped_dir();
         ControllerStage::new(&dir, Pose2::new(0.0, 0.0, 0.0)).unwrap()
     }
 

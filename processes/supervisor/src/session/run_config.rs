@@ -32,7 +32,7 @@ impl RunConfig {
         let scene = Scene::load(&files.scene)?;
         let mission_path = opts.mission.clone().unwrap_or(files.mission.clone());
         let mission = MissionConfig::load(&mission_path, &scene)?;
-        let budgets = Budgets::load(&files.budgets)?;
+        let budgets = aisle_config::load::<Budgets>(&files.budgets)?;
         let robot = aisle_config::load::<aisle_robot::RobotConfig>(&files.robot)?;
         let f = &robot.footprint;
         let footprints = Footprints {
@@ -41,7 +41,7 @@ impl RunConfig {
             carrying: f.carrying.footprint(),
             carrying_margin: f.carrying.margin,
         };
-        let restart = RestartConfig::load(&files.restart)?;
+        let restart = aisle_config::load::<RestartConfig>(&files.restart)?;
         let graph = Graph::load_dir(&opts.config_dir)?;
         let kills = opts
             .kill
