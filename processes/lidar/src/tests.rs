@@ -557,3 +557,5 @@ mod allocation {
         assert_eq!(count(), before);
     }
 }
+
+mod golden;
