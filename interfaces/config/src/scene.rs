@@ -122,29 +122,7 @@ fn positive_size(size: &[f64; 3]) -> bool {
 }
 
 fn resolve(path: &Path, text: &str, file: SceneFile) -> Result<Scene, ConfigError> {
-    for (name, t) in &file.templates {
-        if t.parts.is_empty() {
-            return Err(ConfigError::invalid(
-                path,
-                text,
-                &format!("templates.{name}.parts"),
-                "a template needs at least one part",
-            ));
-        }
-        for (i, p) in t.parts.iter().enumerate() {
-            if !positive_size(&p.size) || !p.center.iter().all(|c| c.is_finite()) {
-                return Err(ConfigError::invalid(
-                    path,
-                    text,
-                    &format!("templates.{name}.parts"),
-                    format!(
-                        "part {i}: sizes must be positive and finite, got {:?}",
-                        p.size
-                    ),
-                ));
-            }
-        }
-    }
+    check_templates(path, text, &file.templates)?;
     let mut bodies = Vec::with_capacity(file.body.len());
     let mut seen = BTreeMap::new();
     for (i, b) in file.body.into_iter().enumerate() {
@@ -168,44 +146,7 @@ fn resolve(path: &Path, text: &str, file: SceneFile) -> Result<Scene, ConfigErro
                 format!("not finite: {:?}", b.pose),
             ));
         }
-        let parts = match (&b.size, &b.template) {
-            (Some(size), None) => {
-                if !positive_size(size) {
-                    return Err(ConfigError::invalid(
-                        path,
-                        text,
-                        &key("size"),
-                        format!("sizes must be positive, got {size:?}"),
-                    ));
-                }
-                vec![BoxPart {
-                    center: [0.0, 0.0, 0.5 * size[2]],
-                    size: *size,
-                }]
-            }
-            (None, Some(t)) => match file.templates.get(t) {
-                Some(t) => t.parts.clone(),
-                None => {
-                    return Err(ConfigError::invalid(
-                        path,
-                        text,
-                        &key("template"),
-                        format!("no template named `{t}`"),
-                    ));
-                }
-            },
-            _ => {
-                return Err(ConfigError::invalid(
-                    path,
-                    text,
-                    &key("name"),
-                    format!(
-                        "body `{}` needs exactly one of `size` or `template`",
-                        b.name
-                    ),
-                ));
-            }
-        };
+        let parts = body_parts(path, text, i, &b, &file.templates)?;
         bodies.push(Body {
             name: b.name,
             kind: b.kind,
@@ -223,6 +164,83 @@ fn resolve(path: &Path, text: &str, file: SceneFile) -> Result<Scene, ConfigErro
         ));
     }
     Ok(Scene { bodies })
+}
+
+/// Every template has parts, each of positive, finite size at a finite centre.
+fn check_templates(
+    path: &Path,
+    text: &str,
+    templates: &BTreeMap<String, TemplateSpec>,
+) -> Result<(), ConfigError> {
+    for (name, t) in templates {
+        if t.parts.is_empty() {
+            return Err(ConfigError::invalid(
+                path,
+                text,
+                &format!("templates.{name}.parts"),
+                "a template needs at least one part",
+            ));
+        }
+        for (i, p) in t.parts.iter().enumerate() {
+            if !positive_size(&p.size) || !p.center.iter().all(|c| c.is_finite()) {
+                return Err(ConfigError::invalid(
+                    path,
+                    text,
+                    &format!("templates.{name}.parts"),
+                    format!(
+                        "part {i}: sizes must be positive and finite, got {:?}",
+                        p.size
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The boxes of body `i`: its one `size` box standing on the floor, or its template's.
+fn body_parts(
+    path: &Path,
+    text: &str,
+    i: usize,
+    b: &BodySpec,
+    templates: &BTreeMap<String, TemplateSpec>,
+) -> Result<Vec<BoxPart>, ConfigError> {
+    let key = |k: &str| format!("body[{i}].{k}");
+    match (&b.size, &b.template) {
+        (Some(size), None) => {
+            if !positive_size(size) {
+                return Err(ConfigError::invalid(
+                    path,
+                    text,
+                    &key("size"),
+                    format!("sizes must be positive, got {size:?}"),
+                ));
+            }
+            Ok(vec![BoxPart {
+                center: [0.0, 0.0, 0.5 * size[2]],
+                size: *size,
+            }])
+        }
+        (None, Some(t)) => match templates.get(t) {
+            Some(t) => Ok(t.parts.clone()),
+            None => Err(ConfigError::invalid(
+                path,
+                text,
+                &key("template"),
+                format!("no template named `{t}`"),
+            )),
+        },
+        _ => Err(ConfigError::invalid(
+            path,
+            text,
+            &key("name"),
+            format!(
+                "body `{}` needs exactly one of `size` or `template`",
+                b.name
+            ),
+        )),
+    }
 }
 
 #[cfg(test)]

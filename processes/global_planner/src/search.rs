@@ -9,6 +9,13 @@
 //! Every few expansions an analytic connection to the goal is tried; the first valid one
 //! ends the search. The result is sampled, smoothed and validated again.
 //!
+//! A request runs in phases ([`Planner::plan_with_stop`]): inputs, end poses and the 2D
+//! heuristic, then the search core (`Search`: `next_node` pops the open list, `close`
+//! counts the expansion against the budget and the stop callback, `shot_due` and
+//! `analytic_expansion` attempt the connection that is also the goal test, `expand`
+//! opens the children), then the path (`Buffers::trace` walks the parents back,
+//! `output_path` smooths and validates).
+//!
 //! Reads no clock: the request carries an expansion budget, and the caller may pass a
 //! stop callback (for a wall deadline) that is asked every few hundred expansions.
 
@@ -147,10 +154,22 @@ impl Planner {
         should_stop: &mut dyn FnMut() -> bool,
     ) -> Result<Plan, PlanError> {
         let mut stats = PlanStats::default();
-        let fail = |kind, stats| Err(PlanError { kind, stats });
-        if let Err(e) = check_input(req, map) {
-            return fail(PlanErrorKind::InvalidInput(e), stats);
+        match self.plan_phases(req, map, should_stop, &mut stats) {
+            Ok(path) => Ok(Plan { path, stats }),
+            Err(kind) => Err(PlanError { kind, stats }),
         }
+    }
+
+    /// The phases of one request: inputs, end poses, heuristic, search, path. `stats`
+    /// keeps what they did, also when one of them fails.
+    fn plan_phases(
+        &mut self,
+        req: &PlanRequest,
+        map: &GridView,
+        should_stop: &mut dyn FnMut() -> bool,
+        stats: &mut PlanStats,
+    ) -> Result<Vec<PathPose>, PlanErrorKind> {
+        check_input(req, map).map_err(PlanErrorKind::InvalidInput)?;
         let start = Pose2::new(req.start.x, req.start.y, wrap_angle(req.start.theta));
         let goal = Pose2::new(req.goal.x, req.goal.y, wrap_angle(req.goal.theta));
         stats.map_rebuilt = self.dm.ensure(map);
@@ -161,61 +180,127 @@ impl Planner {
         // The search keeps a little more clearance than the output needs: output poses are
         // joined by straight interpolation, which leaves the arcs by at most the sagitta.
         let sagitta = cfg.validation_distance.powi(2) / (8.0 * model.radius) + 1e-3;
-        let search = FootprintChecker::new(&self.dm, body.inflated(sagitta), cfg.sweep_cover);
+        let checker = FootprintChecker::new(&self.dm, body.inflated(sagitta), cfg.sweep_cover);
         let output = FootprintChecker::new(&self.dm, body, cfg.sweep_cover);
         if !output.pose_free(&start) {
-            return fail(PlanErrorKind::StartOccupied, stats);
+            return Err(PlanErrorKind::StartOccupied);
         }
         if !output.pose_free(&goal) {
-            return fail(PlanErrorKind::GoalOccupied, stats);
+            return Err(PlanErrorKind::GoalOccupied);
         }
-        let heur = &mut self.heur;
-        let reached = heur.compute(
+        let reached = self.heur.compute(
             &self.dm,
             body.inscribed_radius(),
             cfg.heuristic_resolution,
             (goal.x, goal.y),
         );
-        stats.heuristic_cells = heur.settled;
-        let Some(h_start) = heur.metres(start.x, start.y).filter(|_| reached) else {
-            return fail(PlanErrorKind::NoPath, stats);
+        stats.heuristic_cells = self.heur.settled;
+        let h_start = self
+            .heur
+            .metres(start.x, start.y)
+            .filter(|_| reached)
+            .ok_or(PlanErrorKind::NoPath)?;
+
+        let mut search = Search {
+            cfg,
+            model,
+            grid: SearchGrid::new(map, cfg.search_resolution, model.bins),
+            heur: &self.heur,
+            checker,
+            goal,
+            buf: &mut self.buf,
+            stats: &mut *stats,
         };
+        search.open_start(start, h_start);
+        let (last, shot) = search.run(req.max_expansions, should_stop)?;
 
         let buf = &mut self.buf;
-        let grid = SearchGrid::new(map, cfg.search_resolution, model.bins);
-        buf.reset(grid.states());
+        stats.path_cost = buf.nodes[last].g + shot.cost;
+        let rotate_step = (cfg.validation_distance / output.circumscribed_radius()).min(0.2);
+        buf.trace(last, model, &shot, cfg.validation_distance, rotate_step);
+        // Land exactly on the goal (the integrated end is within round-off of it).
+        let end = buf.raw.len() - 1;
+        buf.raw[end].pose = goal;
+        buf.raw[0].pose = start;
+        output_path(cfg, model.radius, &output, buf, stats)
+    }
+}
 
-        buf.push_node(Node {
+/// One request's search: what it reads (configuration, model, closed-set grid,
+/// heuristic, the search's collision checker, goal) and what it writes (the planner's
+/// buffers and the request's counters).
+struct Search<'a> {
+    cfg: &'a PlannerConfig,
+    model: &'a Model,
+    grid: SearchGrid,
+    heur: &'a GridHeuristic,
+    checker: FootprintChecker<'a>,
+    goal: Pose2,
+    buf: &'a mut Buffers,
+    stats: &'a mut PlanStats,
+}
+
+impl Search<'_> {
+    /// Clears the buffers and puts the start node on the open list.
+    fn open_start(&mut self, start: Pose2, h_start: f64) {
+        self.buf.reset(self.grid.states());
+        self.buf.push_node(Node {
             pose: start,
             g: 0.0,
-            h: h_start * model.min_cost_per_metre,
+            h: h_start * self.model.min_cost_per_metre,
             parent: NONE,
-            state: grid.state(&start, model).unwrap_or(0),
+            state: self.grid.state(&start, self.model).unwrap_or(0),
             prim: 0,
             dir: DIR_NONE,
             closed: false,
             h_full: false,
         });
-        stats.nodes = 1;
+        self.stats.nodes = 1;
+    }
 
-        let rotate_step = (cfg.validation_distance / output.circumscribed_radius()).min(0.2);
+    /// Expands nodes in order of f until an analytic expansion reaches the goal; returns
+    /// the node it left from and the shot.
+    fn run(
+        &mut self,
+        budget: u32,
+        should_stop: &mut dyn FnMut() -> bool,
+    ) -> Result<(usize, Shot), PlanErrorKind> {
         let mut since_shot = 0u32;
-        let found = loop {
-            let Some(entry) = buf.open.pop() else {
-                return fail(PlanErrorKind::NoPath, stats);
-            };
+        loop {
+            let ni = self.next_node().ok_or(PlanErrorKind::NoPath)?;
+            self.close(ni, budget, should_stop)?;
+            let node = self.buf.nodes[ni];
+            if self.shot_due(&node, &mut since_shot)
+                && let Some(shot) = self.analytic_expansion(&node)
+            {
+                return Ok((ni, shot));
+            }
+            self.expand(ni, &node);
+        }
+    }
+
+    /// Pops the open node with the lowest f that is still current (not closed, not
+    /// superseded by a cheaper g). A node popped for the first time gets the free-space
+    /// part of its heuristic; if that raises it, it goes back on the list and the next
+    /// one is popped. `None` when the open list is empty.
+    #[inline]
+    fn next_node(&mut self) -> Option<usize> {
+        loop {
+            let entry = self.buf.open.pop()?;
             let ni = entry.node as usize;
-            let node = buf.nodes[ni];
+            let node = self.buf.nodes[ni];
             if node.closed || node.g.to_bits() != entry.g.to_bits() {
                 continue;
             }
             if !node.h_full {
-                let h_free = model.free_space_cost(&node.pose, &goal, &mut buf.rs);
-                let n = &mut buf.nodes[ni];
+                let h_free = self
+                    .model
+                    .free_space_cost(&node.pose, &self.goal, &mut self.buf.rs);
+                let n = &mut self.buf.nodes[ni];
                 n.h_full = true;
                 if h_free > n.h + 1e-9 {
                     n.h = h_free;
-                    buf.open.push(OpenEntry {
+                    self.buf.open.push(OpenEntry {
                         f: n.g + n.h,
                         g: n.g,
                         node: entry.node,
@@ -223,153 +308,180 @@ impl Planner {
                     continue;
                 }
             }
-            if stats.expansions >= req.max_expansions {
-                return fail(PlanErrorKind::BudgetExhausted, stats);
-            }
-            if stats.expansions > 0
-                && stats.expansions % cfg.stop_check_interval == 0
-                && should_stop()
-            {
-                return fail(PlanErrorKind::Stopped, stats);
-            }
-            stats.expansions += 1;
-            buf.nodes[ni].closed = true;
+            return Some(ni);
+        }
+    }
 
-            // Far from the goal a shot almost always fails after a long collision check,
-            // so shots are spaced by the remaining cost as well (Nav2 does the same).
-            since_shot += 1;
-            let remaining = buf.nodes[ni].h / model.min_cost_per_metre;
-            let interval = (cfg.analytic_interval_per_metre * remaining)
-                .min(f64::from(u32::MAX))
-                .max(f64::from(cfg.analytic_expansion_interval)) as u32;
-            if stats.expansions == 1 || since_shot >= interval {
-                since_shot = 0;
-                if let Some(shot) = try_analytic(model, cfg, &search, &node, &goal, buf, &mut stats)
-                {
-                    break (ni, shot);
-                }
+    /// Counts the expansion of node `ni` and closes it, unless the budget is spent or
+    /// the caller (asked every `stop_check_interval` expansions) wants to stop.
+    #[inline]
+    fn close(
+        &mut self,
+        ni: usize,
+        budget: u32,
+        should_stop: &mut dyn FnMut() -> bool,
+    ) -> Result<(), PlanErrorKind> {
+        let stats = &mut *self.stats;
+        let interval = self.cfg.stop_check_interval;
+        if stats.expansions >= budget {
+            return Err(PlanErrorKind::BudgetExhausted);
+        }
+        if stats.expansions > 0 && stats.expansions.is_multiple_of(interval) && should_stop() {
+            return Err(PlanErrorKind::Stopped);
+        }
+        stats.expansions += 1;
+        self.buf.nodes[ni].closed = true;
+        Ok(())
+    }
+
+    /// Whether this expansion tries an analytic connection: the first one does, then
+    /// one in every interval, which grows with the remaining cost.
+    #[inline]
+    fn shot_due(&self, node: &Node, since_shot: &mut u32) -> bool {
+        // Far from the goal a shot almost always fails after a long collision check,
+        // so shots are spaced by the remaining cost as well (Nav2 does the same).
+        *since_shot += 1;
+        let remaining = node.h / self.model.min_cost_per_metre;
+        let interval = (self.cfg.analytic_interval_per_metre * remaining)
+            .min(f64::from(u32::MAX))
+            .max(f64::from(self.cfg.analytic_expansion_interval)) as u32;
+        if self.stats.expansions == 1 || *since_shot >= interval {
+            *since_shot = 0;
+            return true;
+        }
+        false
+    }
+
+    /// Tries the cheapest analytic connections from `node` to the goal; the first that
+    /// is collision free and lands on the goal ends the search.
+    fn analytic_expansion(&mut self, node: &Node) -> Option<Shot> {
+        let (model, buf) = (self.model, &mut *self.buf);
+        crate::reeds_shepp::solve(&node.pose, &self.goal, model.radius, &mut buf.rs);
+        buf.shots.clear();
+        for p in buf.rs.as_slice() {
+            buf.shots.push(model.rs_shot(p, node.dir));
+        }
+        if model.allow_rotation {
+            buf.shots
+                .extend(model.rtr_shots(&node.pose, &self.goal, node.dir));
+        }
+        // Stable sort: ties keep the solver's fixed order, so the choice is deterministic.
+        buf.shots.sort_by(|a, b| a.cost.total_cmp(&b.cost));
+        let tries = self.cfg.analytic_candidates as usize;
+        for shot in buf.shots.iter().take(tries) {
+            self.stats.analytic_checks += 1;
+            if shot_reaches_goal(&self.checker, &node.pose, shot, &self.goal, self.stats) {
+                return Some(*shot);
             }
+        }
+        None
+    }
 
-            for (pi, prim) in model.prims.iter().enumerate() {
-                let pose = prim.end(&node.pose);
-                let Some(state) = grid.state(&pose, model) else {
-                    continue;
-                };
-                let existing = buf.state_node[state as usize];
-                if existing != NONE && buf.nodes[existing as usize].closed {
-                    continue;
-                }
-                let dir = model.prim_dir[pi];
-                let g = node.g + model.prim_cost[pi] + model.switch(node.dir, dir);
-                if existing != NONE && buf.nodes[existing as usize].g <= g {
-                    continue;
-                }
-                if !search.motion_free(&node.pose, prim, &mut stats.collision_probes) {
-                    continue;
-                }
-                let Some(h2d) = heur.metres(pose.x, pose.y) else {
-                    continue;
-                };
-                let child = Node {
-                    pose,
-                    g,
-                    h: h2d * model.min_cost_per_metre,
-                    parent: ni as u32,
-                    state,
-                    prim: pi as u8,
-                    dir,
-                    closed: false,
-                    h_full: false,
-                };
-                if existing == NONE {
-                    buf.push_node(child);
-                    stats.nodes += 1;
-                } else {
-                    buf.nodes[existing as usize] = child;
-                    buf.open.push(OpenEntry {
-                        f: child.g + child.h,
-                        g: child.g,
-                        node: existing,
-                    });
-                }
-            }
-        };
-
-        let (last, shot) = found;
-        stats.path_cost = buf.nodes[last].g + shot.cost;
-        buf.trace(last, model, &shot, cfg.validation_distance, rotate_step);
-        // Land exactly on the goal (the integrated end is within round-off of it).
-        let end = buf.raw.len() - 1;
-        buf.raw[end].pose = goal;
-        buf.raw[0].pose = start;
-
-        let sweep_ok = |poses: &[PathPose], probes: &mut u64| {
-            poses
-                .windows(2)
-                .all(|w| output.motion_free(&w[0].pose, &Motion::Lerp { to: w[1].pose }, probes))
-        };
-        let mut path = buf.raw.clone();
-        if cfg.smoothing {
-            let params = SmoothParams {
-                weight_data: cfg.smoothing_weight_data,
-                weight_smooth: cfg.smoothing_weight_smooth,
-                iterations: cfg.smoothing_iterations,
-                radius: model.radius,
+    /// Opens (or reopens with a lower g) the child of `node` (index `ni`) at the end of
+    /// every primitive that lands on the grid, in a state not closed, is collision free
+    /// and has a heuristic (its cell is reachable from the goal).
+    #[inline]
+    fn expand(&mut self, ni: usize, node: &Node) {
+        let model = self.model;
+        for (pi, prim) in model.prims.iter().enumerate() {
+            let pose = prim.end(&node.pose);
+            let Some(state) = self.grid.state(&pose, model) else {
+                continue;
             };
-            let probes = &mut stats.collision_probes;
-            stats.smoothed = smooth_path(&mut path, &params, &mut buf.smooth_scratch, |s| {
-                sweep_ok(s, probes)
-            });
-        }
-        if !sweep_ok(&path, &mut stats.collision_probes) {
-            if !stats.smoothed || !sweep_ok(&buf.raw, &mut stats.collision_probes) {
-                return fail(PlanErrorKind::ValidationFailed, stats);
+            let buf = &mut *self.buf;
+            let existing = buf.state_node[state as usize];
+            if existing != NONE && buf.nodes[existing as usize].closed {
+                continue;
             }
-            path.clone_from(&buf.raw);
-            stats.smoothed = false;
+            let dir = model.prim_dir[pi];
+            let g = node.g + model.prim_cost[pi] + model.switch(node.dir, dir);
+            if existing != NONE && buf.nodes[existing as usize].g <= g {
+                continue;
+            }
+            let probes = &mut self.stats.collision_probes;
+            if !self.checker.motion_free(&node.pose, prim, probes) {
+                continue;
+            }
+            let Some(h2d) = self.heur.metres(pose.x, pose.y) else {
+                continue;
+            };
+            let child = Node {
+                pose,
+                g,
+                h: h2d * model.min_cost_per_metre,
+                parent: ni as u32,
+                state,
+                prim: pi as u8,
+                dir,
+                closed: false,
+                h_full: false,
+            };
+            if existing == NONE {
+                buf.push_node(child);
+                self.stats.nodes += 1;
+            } else {
+                buf.reopen(existing, child);
+            }
         }
-        stats.path_length = path_length(&path);
-        Ok(Plan { path, stats })
     }
 }
 
-/// Tries the cheapest analytic connections from `node` to the goal.
-fn try_analytic(
-    model: &Model,
-    cfg: &PlannerConfig,
+/// The goal test of an analytic expansion: every motion of `shot` from `from` is
+/// collision free and the chain ends on the goal.
+#[inline]
+fn shot_reaches_goal(
     checker: &FootprintChecker,
-    node: &Node,
+    from: &Pose2,
+    shot: &Shot,
     goal: &Pose2,
+    stats: &mut PlanStats,
+) -> bool {
+    let mut pose = *from;
+    for m in shot.motions() {
+        if !checker.motion_free(&pose, m, &mut stats.collision_probes) {
+            return false;
+        }
+        pose = m.end(&pose);
+    }
+    pose.distance(goal) < 1e-6 && pose.heading_error(goal) < 1e-6
+}
+
+/// The returned path: the traced `buf.raw`, smoothed if configured, and swept again by
+/// the output checker; the unsmoothed path if only the smoothed one fails.
+fn output_path(
+    cfg: &PlannerConfig,
+    radius: f64,
+    output: &FootprintChecker,
     buf: &mut Buffers,
     stats: &mut PlanStats,
-) -> Option<Shot> {
-    crate::reeds_shepp::solve(&node.pose, goal, model.radius, &mut buf.rs);
-    buf.shots.clear();
-    for p in buf.rs.as_slice() {
-        buf.shots.push(model.rs_shot(p, node.dir));
+) -> Result<Vec<PathPose>, PlanErrorKind> {
+    let sweep_ok = |poses: &[PathPose], probes: &mut u64| {
+        poses
+            .windows(2)
+            .all(|w| output.motion_free(&w[0].pose, &Motion::Lerp { to: w[1].pose }, probes))
+    };
+    let mut path = buf.raw.clone();
+    if cfg.smoothing {
+        let params = SmoothParams {
+            weight_data: cfg.smoothing_weight_data,
+            weight_smooth: cfg.smoothing_weight_smooth,
+            iterations: cfg.smoothing_iterations,
+            radius,
+        };
+        let probes = &mut stats.collision_probes;
+        stats.smoothed = smooth_path(&mut path, &params, &mut buf.smooth_scratch, |s| {
+            sweep_ok(s, probes)
+        });
     }
-    if model.allow_rotation {
-        buf.shots
-            .extend(model.rtr_shots(&node.pose, goal, node.dir));
-    }
-    // Stable sort: ties keep the solver's fixed order, so the choice is deterministic.
-    buf.shots.sort_by(|a, b| a.cost.total_cmp(&b.cost));
-    for shot in buf.shots.iter().take(cfg.analytic_candidates as usize) {
-        stats.analytic_checks += 1;
-        let mut pose = node.pose;
-        let mut ok = true;
-        for m in shot.motions() {
-            if !checker.motion_free(&pose, m, &mut stats.collision_probes) {
-                ok = false;
-                break;
-            }
-            pose = m.end(&pose);
+    if !sweep_ok(&path, &mut stats.collision_probes) {
+        if !stats.smoothed || !sweep_ok(&buf.raw, &mut stats.collision_probes) {
+            return Err(PlanErrorKind::ValidationFailed);
         }
-        if ok && pose.distance(goal) < 1e-6 && pose.heading_error(goal) < 1e-6 {
-            return Some(*shot);
-        }
+        path.clone_from(&buf.raw);
+        stats.smoothed = false;
     }
-    None
+    stats.path_length = path_length(&path);
+    Ok(path)
 }
 
 impl Buffers {
@@ -395,6 +507,18 @@ impl Buffers {
             node: idx,
         });
         self.nodes.push(n);
+    }
+
+    /// Replaces node `existing` by `child` (same state, lower g) and queues it again;
+    /// its old open entry goes stale (its g no longer matches).
+    #[inline]
+    fn reopen(&mut self, existing: u32, child: Node) {
+        self.nodes[existing as usize] = child;
+        self.open.push(OpenEntry {
+            f: child.g + child.h,
+            g: child.g,
+            node: existing,
+        });
     }
 
     /// Samples the motions from the start to `last` and then `shot` into `raw`.

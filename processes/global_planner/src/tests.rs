@@ -558,3 +558,5 @@ fn seed_legs_plan_on_the_scene_static_map() {
         }
     }
 }
+
+mod golden;

@@ -59,6 +59,47 @@ impl GeneralCaster {
         out: &mut [[f32; 3]],
     ) -> usize {
         let range = pattern.max_range;
+        self.place_boxes(world, sensor, range);
+        let r = &sensor.rotation;
+        let height = sensor.position[2];
+        let rows = pattern.rows();
+        let cols = pattern.columns();
+        let mut hits = 0;
+        for col in 0..cols {
+            let ca = pattern.cos_az[col];
+            let sa = pattern.sin_az[col];
+            self.column_candidates(ca, sa);
+            // World z of the column's horizontal direction, for the floor.
+            let gz_h = (r[2][0] * f64::from(ca) + r[2][1] * f64::from(sa)) as f32;
+            for row in 0..rows {
+                let ce = pattern.cos_el[row];
+                let se = pattern.sin_el[row];
+                let mut best = range;
+                let mut hit = false;
+                let dz = ce * gz_h + se * r[2][2] as f32;
+                if hit_floor && dz < 0.0 && height > 0.0 {
+                    let t = (height / f64::from(-dz)) as f32;
+                    if t <= best {
+                        best = t;
+                        hit = true;
+                    }
+                }
+                hit |= self.nearest_box(ce, se, &mut best);
+                out[row * cols + col] = if hit {
+                    hits += 1;
+                    let d = pattern.direction(row, col);
+                    [best * d[0], best * d[1], best * d[2]]
+                } else {
+                    [f32::NAN; 3]
+                };
+            }
+        }
+        hits
+    }
+
+    /// Moves every enabled box into the sensor frame, drops those that hold the sensor
+    /// or lie beyond `range`, and sorts the rest by their nearest possible hit.
+    fn place_boxes(&mut self, world: &World, sensor: &SensorPose, range: f32) {
         self.obbs.clear();
         for b in world.enabled_boxes() {
             let zc = 0.5 * (b.z_min + b.z_max);
@@ -95,68 +136,48 @@ impl GeneralCaster {
             });
         }
         self.obbs.sort_unstable_by(|a, b| a.near.total_cmp(&b.near));
+    }
 
-        let r = &sensor.rotation;
-        let height = sensor.position[2];
-        let rows = pattern.rows();
-        let cols = pattern.columns();
-        let mut hits = 0;
-        for col in 0..cols {
-            let ca = pattern.cos_az[col];
-            let sa = pattern.sin_az[col];
-            self.cands.clear();
-            for o in &self.obbs {
-                // The column's rays lie in the half-plane spanned by (ca, sa, 0), cos e >= 0,
-                // and the sensor z axis.
-                let across = -sa * o.center[0] + ca * o.center[1];
-                let along = ca * o.center[0] + sa * o.center[1];
-                if across.abs() > o.radius || along < -o.radius {
-                    continue;
-                }
-                self.cands.push(Candidate {
-                    a: o.axes.map(|ax| ax[0] * ca + ax[1] * sa),
-                    b: o.axes.map(|ax| ax[2]),
-                    origin: o.origin,
-                    half: o.half,
-                    near: o.near,
-                });
+    /// Keeps, in order of nearest hit, the boxes whose bounding sphere meets the
+    /// half-plane of the column at azimuth (cos `ca`, sin `sa`).
+    #[inline]
+    fn column_candidates(&mut self, ca: f32, sa: f32) {
+        self.cands.clear();
+        for o in &self.obbs {
+            // The column's rays lie in the half-plane spanned by (ca, sa, 0), cos e >= 0,
+            // and the sensor z axis.
+            let across = -sa * o.center[0] + ca * o.center[1];
+            let along = ca * o.center[0] + sa * o.center[1];
+            if across.abs() > o.radius || along < -o.radius {
+                continue;
             }
-            // World z of the column's horizontal direction, for the floor.
-            let gz_h = (r[2][0] * f64::from(ca) + r[2][1] * f64::from(sa)) as f32;
-            for row in 0..rows {
-                let ce = pattern.cos_el[row];
-                let se = pattern.sin_el[row];
-                let mut best = range;
-                let mut hit = false;
-                let dz = ce * gz_h + se * r[2][2] as f32;
-                if hit_floor && dz < 0.0 && height > 0.0 {
-                    let t = (height / f64::from(-dz)) as f32;
-                    if t <= best {
-                        best = t;
-                        hit = true;
-                    }
-                }
-                for cand in &self.cands {
-                    if cand.near > best {
-                        break;
-                    }
-                    if let Some(t) = entry(cand, ce, se)
-                        && t <= best
-                    {
-                        best = t;
-                        hit = true;
-                    }
-                }
-                out[row * cols + col] = if hit {
-                    hits += 1;
-                    let d = pattern.direction(row, col);
-                    [best * d[0], best * d[1], best * d[2]]
-                } else {
-                    [f32::NAN; 3]
-                };
+            self.cands.push(Candidate {
+                a: o.axes.map(|ax| ax[0] * ca + ax[1] * sa),
+                b: o.axes.map(|ax| ax[2]),
+                origin: o.origin,
+                half: o.half,
+                near: o.near,
+            });
+        }
+    }
+
+    /// Lowers `best` to the nearest entry into a candidate of the ray at elevation
+    /// (cos `ce`, sin `se`) of the current column; whether any candidate was hit.
+    #[inline]
+    fn nearest_box(&self, ce: f32, se: f32, best: &mut f32) -> bool {
+        let mut hit = false;
+        for cand in &self.cands {
+            if cand.near > *best {
+                break;
+            }
+            if let Some(t) = entry(cand, ce, se)
+                && t <= *best
+            {
+                *best = t;
+                hit = true;
             }
         }
-        hits
+        hit
     }
 }
 

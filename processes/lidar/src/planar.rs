@@ -13,7 +13,7 @@
 //! Knows nothing of noise or of the general (tilted) case.
 
 use crate::pattern::ScanPattern;
-use crate::world::World;
+use crate::world::{World, WorldBox};
 
 /// A box in the sensor frame, as the column sweep needs it.
 #[derive(Debug, Clone, Copy, Default)]
@@ -93,6 +93,8 @@ impl PlanarCaster {
         self.sweep(pattern, out)
     }
 
+    /// Moves every enabled box into the sensor frame, culls it, and lists the columns
+    /// and rows it may cover, sorted for the column sweep; fills the floor distances.
     fn prepare(
         &mut self,
         pattern: &ScanPattern,
@@ -103,15 +105,36 @@ impl PlanarCaster {
     ) {
         self.sboxes.clear();
         self.spans.clear();
-        let range = pattern.max_range();
-        let rows = pattern.rows();
-        let cols = pattern.columns();
-        let el = pattern.elevations();
-        let az = pattern.azimuths();
-        let el_step = if rows > 1 { el[1] - el[0] } else { 1.0 };
-        let az_step = if cols > 1 { az[1] - az[0] } else { 1.0 };
-        let (sy, cy) = yaw.sin_cos();
+        let frame = Frame::new(pattern, origin, yaw);
+        self.floor_distances(pattern, origin, hit_floor);
+        for b in world.enabled_boxes() {
+            let Some(p) = frame.place(b) else {
+                continue;
+            };
+            let Some((row_lo, row_hi)) = frame.rows(&p) else {
+                continue;
+            };
+            let index = self.sboxes.len() as u32;
+            self.sboxes.push(SensorBox {
+                ou: p.ou as f32,
+                ov: p.ov as f32,
+                ux: p.ct as f32,
+                uy: p.st as f32,
+                hx: p.hx as f32,
+                hy: p.hy as f32,
+                z0: p.z0 as f32,
+                z1: p.z1 as f32,
+                row_lo,
+                row_hi,
+            });
+            self.push_spans(&frame, &p, index);
+        }
+        self.spans.sort_unstable_by_key(|s| (s.c_lo, s.sbox));
+    }
 
+    /// Horizontal distance at which each row's ray meets the floor (infinite for rays
+    /// that do not point down, or when the floor is not hit).
+    fn floor_distances(&mut self, pattern: &ScanPattern, origin: [f64; 3], hit_floor: bool) {
         for (r, f) in self.floor_s.iter_mut().enumerate() {
             let k = pattern.tan_el[r];
             *f = if hit_floor && k < 0.0 && origin[2] > 0.0 {
@@ -120,85 +143,45 @@ impl PlanarCaster {
                 f32::INFINITY
             };
         }
+    }
 
-        for b in world.enabled_boxes() {
-            let dx = b.center[0] - origin[0];
-            let dy = b.center[1] - origin[1];
-            let cx = cy * dx + sy * dy;
-            let cyy = -sy * dx + cy * dy;
-            let (st, ct) = (b.yaw - yaw).sin_cos();
-            let ou = -(cx * ct + cyy * st);
-            let ov = cx * st - cyy * ct;
-            let (hx, hy) = (b.half[0], b.half[1]);
-            let z0 = b.z_min - origin[2];
-            let z1 = b.z_max - origin[2];
-            let inside_2d = ou.abs() <= hx + ON_OUTLINE && ov.abs() <= hy + ON_OUTLINE;
-            if ou.abs() <= hx && ov.abs() <= hy && z0 <= 0.0 && z1 >= 0.0 {
-                // The sensor is inside this box: it sees out of it, not its walls.
-                continue;
-            }
-            let ex = (ou.abs() - hx).max(0.0);
-            let ey = (ov.abs() - hy).max(0.0);
-            let dmin = ex.hypot(ey);
-            if dmin > range {
-                continue;
-            }
-            let dmax = (ou.abs() + hx).hypot(ov.abs() + hy).min(range);
-            // Elevations of the box's points: (d, z) ranges over [dmin, dmax] x [z0, z1].
-            let e_hi = z1.atan2(if z1 > 0.0 { dmin } else { dmax });
-            let e_lo = z0.atan2(if z0 > 0.0 { dmax } else { dmin });
-            // One channel of slack either way: a spare candidate costs a test, a
-            // missing one would lose a return.
-            let lo = ((e_lo - el[0]) / el_step).ceil() - 1.0;
-            let hi = ((e_hi - el[0]) / el_step).floor() + 1.0;
-            if hi < 0.0 || lo > (rows - 1) as f64 {
-                continue;
-            }
-            let index = self.sboxes.len() as u32;
-            self.sboxes.push(SensorBox {
-                ou: ou as f32,
-                ov: ov as f32,
-                ux: ct as f32,
-                uy: st as f32,
-                hx: hx as f32,
-                hy: hy as f32,
-                z0: z0 as f32,
-                z1: z1 as f32,
-                row_lo: lo.max(0.0) as u32,
-                row_hi: hi.min((rows - 1) as f64) as u32,
+    /// The columns that may see box `index`: every column if the sensor is within its
+    /// outline, else the azimuths between its extreme corners (one spare column either
+    /// way), once per copy of that interval shifted by a turn that meets the pattern.
+    #[inline]
+    fn push_spans(&mut self, frame: &Frame, p: &Placed, index: u32) {
+        let cols = frame.cols;
+        if p.inside_2d {
+            self.spans.push(Span {
+                c_lo: 0,
+                c_hi: (cols - 1) as u32,
+                sbox: index,
             });
-            if inside_2d {
-                self.spans.push(Span {
-                    c_lo: 0,
-                    c_hi: (cols - 1) as u32,
-                    sbox: index,
-                });
+            return;
+        }
+        let (cx, cyy, ct, st, hx, hy) = (p.cx, p.cyy, p.ct, p.st, p.hx, p.hy);
+        let ac = cyy.atan2(cx);
+        let (mut dlo, mut dhi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for (su, sv) in [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)] {
+            // Corner = centre + su*hx*u + sv*hy*v, with u = (ct, st), v = (-st, ct).
+            let px = cx + su * hx * ct - sv * hy * st;
+            let py = cyy + su * hx * st + sv * hy * ct;
+            let d = aisle_geometry::wrap_angle(py.atan2(px) - ac);
+            dlo = dlo.min(d);
+            dhi = dhi.max(d);
+        }
+        for shift in [-std::f64::consts::TAU, 0.0, std::f64::consts::TAU] {
+            let lo = ((ac + dlo + shift - frame.az0) / frame.az_step).ceil() - 1.0;
+            let hi = ((ac + dhi + shift - frame.az0) / frame.az_step).floor() + 1.0;
+            if hi < 0.0 || lo > (cols - 1) as f64 {
                 continue;
             }
-            let ac = cyy.atan2(cx);
-            let (mut dlo, mut dhi) = (f64::INFINITY, f64::NEG_INFINITY);
-            for (su, sv) in [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)] {
-                // Corner = centre + su*hx*u + sv*hy*v, with u = (ct, st), v = (-st, ct).
-                let px = cx + su * hx * ct - sv * hy * st;
-                let py = cyy + su * hx * st + sv * hy * ct;
-                let d = aisle_geometry::wrap_angle(py.atan2(px) - ac);
-                dlo = dlo.min(d);
-                dhi = dhi.max(d);
-            }
-            for shift in [-std::f64::consts::TAU, 0.0, std::f64::consts::TAU] {
-                let lo = ((ac + dlo + shift - az[0]) / az_step).ceil() - 1.0;
-                let hi = ((ac + dhi + shift - az[0]) / az_step).floor() + 1.0;
-                if hi < 0.0 || lo > (cols - 1) as f64 {
-                    continue;
-                }
-                self.spans.push(Span {
-                    c_lo: lo.max(0.0) as u32,
-                    c_hi: hi.min((cols - 1) as f64) as u32,
-                    sbox: index,
-                });
-            }
+            self.spans.push(Span {
+                c_lo: lo.max(0.0) as u32,
+                c_hi: hi.min((cols - 1) as f64) as u32,
+                sbox: index,
+            });
         }
-        self.spans.sort_unstable_by_key(|s| (s.c_lo, s.sbox));
     }
 
     fn sweep(&mut self, pattern: &ScanPattern, out: &mut [[f32; 3]]) -> usize {
@@ -292,6 +275,126 @@ impl PlanarCaster {
             }
         }
         hits
+    }
+}
+
+/// What placing boxes in one scan needs: the sensor's position and yaw, the range and
+/// the pattern's first angles and steps.
+#[derive(Debug, Clone, Copy)]
+struct Frame {
+    origin: [f64; 3],
+    yaw: f64,
+    sy: f64,
+    cy: f64,
+    range: f64,
+    rows: usize,
+    cols: usize,
+    el0: f64,
+    el_step: f64,
+    az0: f64,
+    az_step: f64,
+}
+
+/// A box in the sensor's horizontal frame, in f64, before it is culled and packed.
+#[derive(Debug, Clone, Copy)]
+struct Placed {
+    /// Box centre in the sensor frame.
+    cx: f64,
+    cyy: f64,
+    /// Sensor origin in the box frame.
+    ou: f64,
+    ov: f64,
+    /// Cosine and sine of the box's yaw relative to the sensor.
+    ct: f64,
+    st: f64,
+    hx: f64,
+    hy: f64,
+    /// z interval relative to the sensor.
+    z0: f64,
+    z1: f64,
+    /// The sensor is within the box's outline (seen from above).
+    inside_2d: bool,
+}
+
+impl Frame {
+    fn new(pattern: &ScanPattern, origin: [f64; 3], yaw: f64) -> Frame {
+        let rows = pattern.rows();
+        let cols = pattern.columns();
+        let el = pattern.elevations();
+        let az = pattern.azimuths();
+        let (sy, cy) = yaw.sin_cos();
+        Frame {
+            origin,
+            yaw,
+            sy,
+            cy,
+            range: pattern.max_range(),
+            rows,
+            cols,
+            el0: el[0],
+            el_step: if rows > 1 { el[1] - el[0] } else { 1.0 },
+            az0: az[0],
+            az_step: if cols > 1 { az[1] - az[0] } else { 1.0 },
+        }
+    }
+
+    /// `b` in the sensor frame, or `None` when the sensor is inside it (it sees out of
+    /// the box, not its walls).
+    #[inline]
+    fn place(&self, b: &WorldBox) -> Option<Placed> {
+        let (sy, cy) = (self.sy, self.cy);
+        let dx = b.center[0] - self.origin[0];
+        let dy = b.center[1] - self.origin[1];
+        let cx = cy * dx + sy * dy;
+        let cyy = -sy * dx + cy * dy;
+        let (st, ct) = (b.yaw - self.yaw).sin_cos();
+        let ou = -(cx * ct + cyy * st);
+        let ov = cx * st - cyy * ct;
+        let (hx, hy) = (b.half[0], b.half[1]);
+        let z0 = b.z_min - self.origin[2];
+        let z1 = b.z_max - self.origin[2];
+        let inside_2d = ou.abs() <= hx + ON_OUTLINE && ov.abs() <= hy + ON_OUTLINE;
+        if ou.abs() <= hx && ov.abs() <= hy && z0 <= 0.0 && z1 >= 0.0 {
+            return None;
+        }
+        Some(Placed {
+            cx,
+            cyy,
+            ou,
+            ov,
+            ct,
+            st,
+            hx,
+            hy,
+            z0,
+            z1,
+            inside_2d,
+        })
+    }
+
+    /// The rows that may see `p` (one spare channel either way: a spare candidate
+    /// costs a test, a missing one would lose a return), or `None` when it is beyond
+    /// range or outside every row.
+    #[inline]
+    fn rows(&self, p: &Placed) -> Option<(u32, u32)> {
+        let (ou, ov, hx, hy, z0, z1) = (p.ou, p.ov, p.hx, p.hy, p.z0, p.z1);
+        let ex = (ou.abs() - hx).max(0.0);
+        let ey = (ov.abs() - hy).max(0.0);
+        let dmin = ex.hypot(ey);
+        if dmin > self.range {
+            return None;
+        }
+        let dmax = (ou.abs() + hx).hypot(ov.abs() + hy).min(self.range);
+        // Elevations of the box's points: (d, z) ranges over [dmin, dmax] x [z0, z1].
+        let e_hi = z1.atan2(if z1 > 0.0 { dmin } else { dmax });
+        let e_lo = z0.atan2(if z0 > 0.0 { dmax } else { dmin });
+        let lo = ((e_lo - self.el0) / self.el_step).ceil() - 1.0;
+        let hi = ((e_hi - self.el0) / self.el_step).floor() + 1.0;
+        let last = (self.rows - 1) as f64;
+        if hi < 0.0 || lo > last {
+            return None;
+        }
+        Some((lo.max(0.0) as u32, hi.min(last) as u32))
     }
 }
 

@@ -555,3 +555,5 @@ mod allocation {
         assert_eq!(count(), before);
     }
 }
+
+mod golden;

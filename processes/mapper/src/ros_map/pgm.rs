@@ -76,26 +76,71 @@ impl<'a> Cursor<'a> {
     }
 }
 
+/// The numbers of the header, checked.
+struct Header {
+    width: u64,
+    height: u64,
+    maxval: u64,
+    /// Pixel count, at most [`MAX_PIXELS`].
+    n: usize,
+}
+
 /// Decodes a P5 or P2 image.
 pub fn parse_pgm(file: &Path, bytes: &[u8]) -> Result<Pgm, MapError> {
-    let magic = bytes.get(..2);
-    let binary = match magic {
-        Some(b"P5") => true,
-        Some(b"P2") => false,
-        _ => {
-            return Err(MapError::ros(
-                file,
-                Some(1),
-                None,
-                "not a PGM image: expected `P5` or `P2` at the start",
-            ));
-        }
-    };
+    let binary = is_binary(file, bytes)?;
     let mut cur = Cursor {
         bytes,
         pos: 2,
         line: 1,
     };
+    let h = header(file, &mut cur)?;
+    let mut pixels = Vec::with_capacity(h.n);
+    if binary {
+        binary_raster(file, &cur, &h, &mut pixels)?;
+    } else {
+        for i in 0..h.n {
+            let v = cur.number(file, || format!("value of pixel {i}"))?;
+            pixels.push(v.min(u64::from(u16::MAX)) as u16);
+        }
+    }
+    let maxval = h.maxval;
+    if let Some((i, v)) = pixels
+        .iter()
+        .enumerate()
+        .find(|&(_, &v)| u64::from(v) > maxval)
+    {
+        return Err(MapError::ros(
+            file,
+            None,
+            None,
+            format!("pixel {i} has value {v}, above the maximum {maxval}"),
+        ));
+    }
+    Ok(Pgm {
+        width: h.width as usize,
+        height: h.height as usize,
+        maxval: maxval as u16,
+        pixels,
+    })
+}
+
+/// Whether the magic number says binary (`P5`) or ASCII (`P2`).
+fn is_binary(file: &Path, bytes: &[u8]) -> Result<bool, MapError> {
+    match bytes.get(..2) {
+        Some(b"P5") => Ok(true),
+        Some(b"P2") => Ok(false),
+        _ => Err(MapError::ros(
+            file,
+            Some(1),
+            None,
+            "not a PGM image: expected `P5` or `P2` at the start",
+        )),
+    }
+}
+
+/// Reads width, height and maximum grey value, and refuses an empty image, one beyond
+/// [`MAX_PIXELS`] and a maximum outside 1..=65535.
+fn header(file: &Path, cur: &mut Cursor) -> Result<Header, MapError> {
     let width = cur.number(file, || "width".into())?;
     let height = cur.number(file, || "height".into())?;
     let maxval = cur.number(file, || "maximum grey value".into())?;
@@ -126,64 +171,55 @@ pub fn parse_pgm(file: &Path, bytes: &[u8]) -> Result<Pgm, MapError> {
             format!("maximum grey value {maxval} is not in 1..=65535"),
         ));
     }
-    let mut pixels = Vec::with_capacity(n);
-    if binary {
-        // Exactly one whitespace byte separates the header from the raster.
-        if !cur.bytes.get(cur.pos).is_some_and(u8::is_ascii_whitespace) {
-            return Err(MapError::ros(
-                file,
-                Some(cur.line),
-                None,
-                "expected one whitespace byte after the maximum grey value",
-            ));
-        }
-        let data = &bytes[cur.pos + 1..];
-        let depth = if maxval < 256 { 1 } else { 2 };
-        if data.len() < n * depth {
-            return Err(MapError::ros(
-                file,
-                None,
-                None,
-                format!(
-                    "image data is {} bytes, {width} x {height} at {depth} byte(s) per pixel needs {}",
-                    data.len(),
-                    n * depth
-                ),
-            ));
-        }
-        if depth == 1 {
-            pixels.extend(data[..n].iter().map(|&b| u16::from(b)));
-        } else {
-            pixels.extend(
-                data[..2 * n]
-                    .chunks_exact(2)
-                    .map(|c| u16::from_be_bytes([c[0], c[1]])),
-            );
-        }
-    } else {
-        for i in 0..n {
-            let v = cur.number(file, || format!("value of pixel {i}"))?;
-            pixels.push(v.min(u64::from(u16::MAX)) as u16);
-        }
+    Ok(Header {
+        width,
+        height,
+        maxval,
+        n,
+    })
+}
+
+/// The P5 raster after the header: one or two bytes (big endian) per pixel.
+fn binary_raster(
+    file: &Path,
+    cur: &Cursor,
+    h: &Header,
+    pixels: &mut Vec<u16>,
+) -> Result<(), MapError> {
+    // Exactly one whitespace byte separates the header from the raster.
+    if !cur.bytes.get(cur.pos).is_some_and(u8::is_ascii_whitespace) {
+        return Err(MapError::ros(
+            file,
+            Some(cur.line),
+            None,
+            "expected one whitespace byte after the maximum grey value",
+        ));
     }
-    if let Some((i, v)) = pixels
-        .iter()
-        .enumerate()
-        .find(|&(_, &v)| u64::from(v) > maxval)
-    {
+    let (n, width, height) = (h.n, h.width, h.height);
+    let data = &cur.bytes[cur.pos + 1..];
+    let depth = if h.maxval < 256 { 1 } else { 2 };
+    if data.len() < n * depth {
         return Err(MapError::ros(
             file,
             None,
             None,
-            format!("pixel {i} has value {v}, above the maximum {maxval}"),
+            format!(
+                "image data is {} bytes, {width} x {height} at {depth} byte(s) per pixel needs {}",
+                data.len(),
+                n * depth
+            ),
         ));
     }
-    Ok(Pgm {
-        width: width as usize,
-        height: height as usize,
-        maxval: maxval as u16,
-        pixels,
-    })
+    if depth == 1 {
+        pixels.extend(data[..n].iter().map(|&b| u16::from(b)));
+    } else {
+        pixels.extend(
+            data[..2 * n]
+                .chunks_exact(2)
+                .map(|c| u16::from_be_bytes([c[0], c[1]])),
+        );
+    }
+    Ok(())
 }
 
 /// A binary (P5) 8-bit image, rows top first.

@@ -96,35 +96,13 @@ pub fn parse_map_yaml(file: &Path, text: &str) -> Result<MapYaml, MapError> {
     let err = |line: Option<usize>, key: Option<&str>, reason: String| {
         MapError::ros(file, line, key, reason)
     };
-    let mut image = None;
-    let mut resolution = None;
-    let mut origin = None;
-    let mut negate = (false, 0);
-    let mut occupied = (DEFAULT_OCCUPIED_THRESH, 0);
-    let mut free = (DEFAULT_FREE_THRESH, 0);
-    let mut mode = MapMode::Trinary;
+    let mut fields = Fields::default();
     let mut seen: [usize; KEYS.len()] = [0; KEYS.len()];
     for (i, line) in text.lines().enumerate() {
         let n = i + 1;
-        let t = line.trim();
-        if t.is_empty() || t.starts_with('#') || t == "---" || t == "..." {
+        let Some((key, raw)) = key_value(line).map_err(|e| err(Some(n), None, e))? else {
             continue;
-        }
-        if line.starts_with(char::is_whitespace) {
-            return Err(err(
-                Some(n),
-                None,
-                "nested YAML is not supported: the map file is flat `key: value` lines".into(),
-            ));
-        }
-        let Some((key, raw)) = t.split_once(':') else {
-            return Err(err(
-                Some(n),
-                None,
-                format!("expected `key: value`, got `{t}`"),
-            ));
         };
-        let key = key.trim();
         let Some(k) = KEYS.iter().position(|k| *k == key) else {
             return Err(err(
                 Some(n),
@@ -140,84 +118,144 @@ pub fn parse_map_yaml(file: &Path, text: &str) -> Result<MapYaml, MapError> {
             ));
         }
         seen[k] = n;
-        let bad = |reason: String| err(Some(n), Some(key), reason);
-        let v = scalar(raw).map_err(bad)?;
+        (scalar(raw).and_then(|v| fields.set(key, v, n)))
+            .map_err(|e| err(Some(n), Some(key), e))?;
+    }
+    fields.finish(file)
+}
+
+/// The key and the raw value of a `key: value` line, `None` for a blank, comment or
+/// document-marker line.
+fn key_value(line: &str) -> Result<Option<(&str, &str)>, String> {
+    let t = line.trim();
+    if t.is_empty() || t.starts_with('#') || t == "---" || t == "..." {
+        return Ok(None);
+    }
+    if line.starts_with(char::is_whitespace) {
+        return Err("nested YAML is not supported: the map file is flat `key: value` lines".into());
+    }
+    let Some((key, raw)) = t.split_once(':') else {
+        return Err(format!("expected `key: value`, got `{t}`"));
+    };
+    Ok(Some((key.trim(), raw)))
+}
+
+/// The values read so far; thresholds keep the line they were set on (0: default).
+struct Fields {
+    image: Option<PathBuf>,
+    resolution: Option<f64>,
+    origin: Option<[f64; 3]>,
+    negate: (bool, usize),
+    occupied: (f64, usize),
+    free: (f64, usize),
+    mode: MapMode,
+}
+
+impl Default for Fields {
+    fn default() -> Fields {
+        Fields {
+            image: None,
+            resolution: None,
+            origin: None,
+            negate: (false, 0),
+            occupied: (DEFAULT_OCCUPIED_THRESH, 0),
+            free: (DEFAULT_FREE_THRESH, 0),
+            mode: MapMode::Trinary,
+        }
+    }
+}
+
+impl Fields {
+    /// Sets `key` (one of [`KEYS`]) from the scalar `v` on line `n`.
+    fn set(&mut self, key: &str, v: &str, n: usize) -> Result<(), String> {
         match key {
             "image" => {
                 if v.is_empty() {
-                    return Err(bad("empty image path".into()));
+                    return Err("empty image path".into());
                 }
-                image = Some(PathBuf::from(v));
+                self.image = Some(PathBuf::from(v));
             }
             "resolution" => {
-                let r = number(v).map_err(bad)?;
+                let r = number(v)?;
                 if r <= 0.0 {
-                    return Err(bad(format!("must be positive, got {r}")));
+                    return Err(format!("must be positive, got {r}"));
                 }
-                resolution = Some(r);
+                self.resolution = Some(r);
             }
-            "origin" => {
-                let inner = v
-                    .strip_prefix('[')
-                    .and_then(|s| s.strip_suffix(']'))
-                    .ok_or_else(|| bad(format!("expected `[x, y, yaw]`, got `{v}`")))?;
-                let parts: Vec<&str> = inner.split(',').map(str::trim).collect();
-                if parts.len() != 3 {
-                    return Err(bad(format!("expected 3 numbers, got {}", parts.len())));
-                }
-                let mut o = [0.0; 3];
-                for (slot, p) in o.iter_mut().zip(&parts) {
-                    *slot = number(p).map_err(bad)?;
-                }
-                if o[2].abs() > 1e-9 {
-                    return Err(bad(format!(
-                        "yaw {} is not supported: grids are axis-aligned",
-                        o[2]
-                    )));
-                }
-                origin = Some(o);
-            }
+            "origin" => self.origin = Some(origin(v)?),
             "negate" => {
-                negate.0 = match v {
+                self.negate.0 = match v {
                     "0" | "false" | "False" => false,
                     "1" | "true" | "True" => true,
-                    _ => return Err(bad(format!("expected 0 or 1, got `{v}`"))),
+                    _ => return Err(format!("expected 0 or 1, got `{v}`")),
                 };
-                negate.1 = n;
+                self.negate.1 = n;
             }
-            "occupied_thresh" => occupied = (fraction(v).map_err(bad)?, n),
-            "free_thresh" => free = (fraction(v).map_err(bad)?, n),
+            "occupied_thresh" => self.occupied = (fraction(v)?, n),
+            "free_thresh" => self.free = (fraction(v)?, n),
             "mode" => {
-                mode = match v {
+                self.mode = match v {
                     "trinary" => MapMode::Trinary,
                     "scale" => MapMode::Scale,
                     "raw" => MapMode::Raw,
-                    _ => return Err(bad(format!("expected trinary, scale or raw, got `{v}`"))),
+                    _ => return Err(format!("expected trinary, scale or raw, got `{v}`")),
                 }
             }
             _ => unreachable!("key checked against KEYS"),
         }
+        Ok(())
     }
-    let missing = |k: &str| err(None, Some(k), "missing".into());
-    if free.0 >= occupied.0 {
-        return Err(err(
-            Some(free.1.max(occupied.1)).filter(|&l| l > 0),
-            Some("free_thresh"),
-            format!(
-                "free_thresh {} must be below occupied_thresh {}",
-                free.0, occupied.0
-            ),
+
+    /// The map description, once the thresholds agree and every required key is set.
+    fn finish(self, file: &Path) -> Result<MapYaml, MapError> {
+        let err = |line: Option<usize>, key: Option<&str>, reason: String| {
+            MapError::ros(file, line, key, reason)
+        };
+        let missing = |k: &str| err(None, Some(k), "missing".into());
+        let (free, occupied) = (self.free, self.occupied);
+        if free.0 >= occupied.0 {
+            return Err(err(
+                Some(free.1.max(occupied.1)).filter(|&l| l > 0),
+                Some("free_thresh"),
+                format!(
+                    "free_thresh {} must be below occupied_thresh {}",
+                    free.0, occupied.0
+                ),
+            ));
+        }
+        Ok(MapYaml {
+            image: self.image.ok_or_else(|| missing("image"))?,
+            resolution: self.resolution.ok_or_else(|| missing("resolution"))?,
+            origin: self.origin.ok_or_else(|| missing("origin"))?,
+            negate: self.negate.0,
+            occupied_thresh: occupied.0,
+            free_thresh: free.0,
+            mode: self.mode,
+        })
+    }
+}
+
+/// `[x, y, yaw]` with a zero yaw (grids are axis-aligned).
+fn origin(v: &str) -> Result<[f64; 3], String> {
+    let inner = v
+        .strip_prefix('[')
+        .and_then(|s| s.strip_suffix(']'))
+        .ok_or_else(|| format!("expected `[x, y, yaw]`, got `{v}`"))?;
+    let parts: Vec<&str> = inner.split(',').map(str::trim).collect();
+    if parts.len() != 3 {
+        return Err(format!("expected 3 numbers, got {}", parts.len()));
+    }
+    let mut o = [0.0; 3];
+    for (slot, p) in o.iter_mut().zip(&parts) {
+        *slot = number(p)?;
+    }
+    if o[2].abs() > 1e-9 {
+        return Err(format!(
+            "yaw {} is not supported: grids are axis-aligned",
+            o[2]
         ));
     }
-    Ok(MapYaml {
-        image: image.ok_or_else(|| missing("image"))?,
-        resolution: resolution.ok_or_else(|| missing("resolution"))?,
-        origin: origin.ok_or_else(|| missing("origin"))?,
-        negate: negate.0,
-        occupied_thresh: occupied.0,
-        free_thresh: free.0,
-        mode,
-    })
+    Ok(o)
 }
 
 /// The YAML text of `y` (numbers in Rust's shortest round-trip form).
