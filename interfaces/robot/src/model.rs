@@ -143,51 +143,8 @@ impl RobotModel {
     }
 
     fn from_urdf<'r>(file: &Path, robot: &'r urdf_rs::Robot) -> Result<RobotModel, ModelError> {
-        let bad_joint = |joint: &str, reason: String| ModelError::BadJoint {
-            file: file.to_path_buf(),
-            joint: joint.to_string(),
-            reason,
-        };
-        let mut links: BTreeMap<&'r str, &'r urdf_rs::Link> = BTreeMap::new();
-        for l in &robot.links {
-            if links.insert(l.name.as_str(), l).is_some() {
-                return Err(ModelError::BadLink {
-                    file: file.to_path_buf(),
-                    link: l.name.clone(),
-                    reason: "defined twice".into(),
-                });
-            }
-        }
-        if !links.contains_key(BASE_LINK) {
-            return Err(ModelError::MissingLink {
-                file: file.to_path_buf(),
-                link: BASE_LINK.into(),
-                needed_by: "every frame of the stack".into(),
-            });
-        }
-        // child -> (parent, parent_T_child)
-        let mut parent_of: BTreeMap<&'r str, (&'r str, Isometry3<f64>)> = BTreeMap::new();
-        for j in &robot.joints {
-            for end in [&j.parent.link, &j.child.link] {
-                if !links.contains_key(end.as_str()) {
-                    return Err(bad_joint(
-                        &j.name,
-                        format!("refers to unknown link `{end}`"),
-                    ));
-                }
-            }
-            let t = origin_to_isometry(&j.origin)
-                .ok_or_else(|| bad_joint(&j.name, "origin is not finite".into()))?;
-            if parent_of
-                .insert(j.child.link.as_str(), (j.parent.link.as_str(), t))
-                .is_some()
-            {
-                return Err(bad_joint(
-                    &j.name,
-                    format!("link `{}` has two parents", j.child.link),
-                ));
-            }
-        }
+        let links = links_by_name(file, robot)?;
+        let parent_of = joint_tree(file, robot, &links)?;
         // root_T_link for every link; a chain longer than the joint count is a cycle.
         let to_root = |link: &'r str| -> Result<(&'r str, Isometry3<f64>), ModelError> {
             let mut t = Isometry3::identity();
@@ -309,6 +266,68 @@ impl RobotModel {
     pub fn lidar_in_world(&self, robot: &Pose2) -> Isometry3<f64> {
         self.base_in_world(robot) * self.lidar_mount
     }
+}
+
+/// The URDF's links by name; `base_link` must be among them, each only once.
+fn links_by_name<'r>(
+    file: &Path,
+    robot: &'r urdf_rs::Robot,
+) -> Result<BTreeMap<&'r str, &'r urdf_rs::Link>, ModelError> {
+    let mut links: BTreeMap<&'r str, &'r urdf_rs::Link> = BTreeMap::new();
+    for l in &robot.links {
+        if links.insert(l.name.as_str(), l).is_some() {
+            return Err(ModelError::BadLink {
+                file: file.to_path_buf(),
+                link: l.name.clone(),
+                reason: "defined twice".into(),
+            });
+        }
+    }
+    if !links.contains_key(BASE_LINK) {
+        return Err(ModelError::MissingLink {
+            file: file.to_path_buf(),
+            link: BASE_LINK.into(),
+            needed_by: "every frame of the stack".into(),
+        });
+    }
+    Ok(links)
+}
+
+/// child -> (parent, parent_T_child) for every joint; each link has one parent.
+fn joint_tree<'r>(
+    file: &Path,
+    robot: &'r urdf_rs::Robot,
+    links: &BTreeMap<&'r str, &'r urdf_rs::Link>,
+) -> Result<BTreeMap<&'r str, (&'r str, Isometry3<f64>)>, ModelError> {
+    let bad_joint = |joint: &str, reason: String| ModelError::BadJoint {
+        file: file.to_path_buf(),
+        joint: joint.to_string(),
+        reason,
+    };
+    // child -> (parent, parent_T_child)
+    let mut parent_of: BTreeMap<&'r str, (&'r str, Isometry3<f64>)> = BTreeMap::new();
+    for j in &robot.joints {
+        for end in [&j.parent.link, &j.child.link] {
+            if !links.contains_key(end.as_str()) {
+                return Err(bad_joint(
+                    &j.name,
+                    format!("refers to unknown link `{end}`"),
+                ));
+            }
+        }
+        let t = origin_to_isometry(&j.origin)
+            .ok_or_else(|| bad_joint(&j.name, "origin is not finite".into()))?;
+        if parent_of
+            .insert(j.child.link.as_str(), (j.parent.link.as_str(), t))
+            .is_some()
+        {
+            return Err(bad_joint(
+                &j.name,
+                format!("link `{}` has two parents", j.child.link),
+            ));
+        }
+    }
+    Ok(parent_of)
 }
 
 /// Projection of a 3D frame onto the floor plane: its origin's x, y and the heading of

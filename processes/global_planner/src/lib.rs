@@ -43,6 +43,7 @@ pub mod node;
 pub mod reeds_shepp;
 mod sampling;
 mod search;
+mod search_core;
 pub mod seed_map;
 mod smooth;
 pub mod validate;

@@ -1,0 +1,405 @@
+//! The search core of Hybrid A*, apart from its planner (in the manner of Nav2 smac's
+//! `a_star.hpp` beside `smac_planner_hybrid.hpp`): nodes and the open list, the buffers
+//! kept between requests, the dense closed-set grid, and one request's [`Search`]
+//! (`next_node`, `close`, `shot_due`, `analytic_expansion`, `expand`) with its goal test.
+//!
+//! Knows the motion model, the collision checker and the heuristic it is handed; knows
+//! nothing of requests, configuration files or the bus.
+
+use crate::collision::FootprintChecker;
+use crate::config::PlannerConfig;
+use crate::error::{PlanErrorKind, PlanStats};
+use crate::heuristic::GridHeuristic;
+use crate::model::{DIR_NONE, Model, Shot};
+use crate::reeds_shepp::Candidates;
+use crate::sampling::{append_motion, finish};
+use aisle_geometry::{GridView, PathPose, Pose2};
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+pub(crate) const NONE: u32 = u32::MAX;
+
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Node {
+    pub(crate) pose: Pose2,
+    pub(crate) g: f64,
+    pub(crate) h: f64,
+    pub(crate) parent: u32,
+    pub(crate) state: u32,
+    pub(crate) prim: u8,
+    pub(crate) dir: i8,
+    pub(crate) closed: bool,
+    pub(crate) h_full: bool,
+}
+
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct OpenEntry {
+    pub(crate) f: f64,
+    pub(crate) g: f64,
+    pub(crate) node: u32,
+}
+
+impl PartialEq for OpenEntry {
+    fn eq(&self, other: &Self) -> bool {
+        self.cmp(other) == Ordering::Equal
+    }
+}
+impl Eq for OpenEntry {}
+impl PartialOrd for OpenEntry {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl Ord for OpenEntry {
+    /// Max-heap order: lowest f first, then the deeper node, then the older node.
+    fn cmp(&self, other: &Self) -> Ordering {
+        other
+            .f
+            .total_cmp(&self.f)
+            .then(self.g.total_cmp(&other.g))
+            .then(other.node.cmp(&self.node))
+    }
+}
+
+/// Buffers kept between requests so that planning does not allocate in steady state.
+#[derive(Debug, Default)]
+pub(crate) struct Buffers {
+    pub(crate) nodes: Vec<Node>,
+    pub(crate) state_node: Vec<u32>,
+    pub(crate) open: BinaryHeap<OpenEntry>,
+    pub(crate) rs: Candidates,
+    pub(crate) shots: Vec<Shot>,
+    pub(crate) chain: Vec<u32>,
+    pub(crate) smooth_scratch: Vec<PathPose>,
+    pub(crate) raw: Vec<PathPose>,
+}
+
+/// One request's search: what it reads (configuration, model, closed-set grid,
+/// heuristic, the search's collision checker, goal) and what it writes (the planner's
+/// buffers and the request's counters).
+pub(crate) struct Search<'a> {
+    pub(crate) cfg: &'a PlannerConfig,
+    pub(crate) model: &'a Model,
+    pub(crate) grid: SearchGrid,
+    pub(crate) heur: &'a GridHeuristic,
+    pub(crate) checker: FootprintChecker<'a>,
+    pub(crate) goal: Pose2,
+    pub(crate) buf: &'a mut Buffers,
+    pub(crate) stats: &'a mut PlanStats,
+}
+
+impl Search<'_> {
+    /// Clears the buffers and puts the start node on the open list.
+    pub(crate) fn open_start(&mut self, start: Pose2, h_start: f64) {
+        self.buf.reset(self.grid.states());
+        self.buf.push_node(Node {
+            pose: start,
+            g: 0.0,
+            h: h_start * self.model.min_cost_per_metre,
+            parent: NONE,
+            state: self.grid.state(&start, self.model).unwrap_or(0),
+            prim: 0,
+            dir: DIR_NONE,
+            closed: false,
+            h_full: false,
+        });
+        self.stats.nodes = 1;
+    }
+
+    /// Expands nodes in order of f until an analytic expansion reaches the goal; returns
+    /// the node it left from and the shot.
+    pub(crate) fn run(
+        &mut self,
+        budget: u32,
+        should_stop: &mut dyn FnMut() -> bool,
+    ) -> Result<(usize, Shot), PlanErrorKind> {
+        let mut since_shot = 0u32;
+        loop {
+            let ni = self.next_node().ok_or(PlanErrorKind::NoPath)?;
+            self.close(ni, budget, should_stop)?;
+            let node = self.buf.nodes[ni];
+            if self.shot_due(&node, &mut since_shot)
+                && let Some(shot) = self.analytic_expansion(&node)
+            {
+                return Ok((ni, shot));
+            }
+            self.expand(ni, &node);
+        }
+    }
+
+    /// Pops the open node with the lowest f that is still current (not closed, not
+    /// superseded by a cheaper g). A node popped for the first time gets the free-space
+    /// part of its heuristic; if that raises it, it goes back on the list and the next
+    /// one is popped. `None` when the open list is empty.
+    #[inline]
+    pub(crate) fn next_node(&mut self) -> Option<usize> {
+        loop {
+            let entry = self.buf.open.pop()?;
+            let ni = entry.node as usize;
+            let node = self.buf.nodes[ni];
+            if node.closed || node.g.to_bits() != entry.g.to_bits() {
+                continue;
+            }
+            if !node.h_full {
+                let h_free = self
+                    .model
+                    .free_space_cost(&node.pose, &self.goal, &mut self.buf.rs);
+                let n = &mut self.buf.nodes[ni];
+                n.h_full = true;
+                if h_free > n.h + 1e-9 {
+                    n.h = h_free;
+                    self.buf.open.push(OpenEntry {
+                        f: n.g + n.h,
+                        g: n.g,
+                        node: entry.node,
+                    });
+                    continue;
+                }
+            }
+            return Some(ni);
+        }
+    }
+
+    /// Counts the expansion of node `ni` and closes it, unless the budget is spent or
+    /// the caller (asked every `stop_check_interval` expansions) wants to stop.
+    #[inline]
+    pub(crate) fn close(
+        &mut self,
+        ni: usize,
+        budget: u32,
+        should_stop: &mut dyn FnMut() -> bool,
+    ) -> Result<(), PlanErrorKind> {
+        let stats = &mut *self.stats;
+        let interval = self.cfg.stop_check_interval;
+        if stats.expansions >= budget {
+            return Err(PlanErrorKind::BudgetExhausted);
+        }
+        if stats.expansions > 0 && stats.expansions.is_multiple_of(interval) && should_stop() {
+            return Err(PlanErrorKind::Stopped);
+        }
+        stats.expansions += 1;
+        self.buf.nodes[ni].closed = true;
+        Ok(())
+    }
+
+    /// Whether this expansion tries an analytic connection: the first one does, then
+    /// one in every interval, which grows with the remaining cost.
+    #[inline]
+    pub(crate) fn shot_due(&self, node: &Node, since_shot: &mut u32) -> bool {
+        // Far from the goal a shot almost always fails after a long collision check,
+        // so shots are spaced by the remaining cost as well (Nav2 does the same).
+        *since_shot += 1;
+        let remaining = node.h / self.model.min_cost_per_metre;
+        let interval = (self.cfg.analytic_interval_per_metre * remaining)
+            .min(f64::from(u32::MAX))
+            .max(f64::from(self.cfg.analytic_expansion_interval)) as u32;
+        if self.stats.expansions == 1 || *since_shot >= interval {
+            *since_shot = 0;
+            return true;
+        }
+        false
+    }
+
+    /// Tries the cheapest analytic connections from `node` to the goal; the first that
+    /// is collision free and lands on the goal ends the search.
+    pub(crate) fn analytic_expansion(&mut self, node: &Node) -> Option<Shot> {
+        let (model, buf) = (self.model, &mut *self.buf);
+        crate::reeds_shepp::solve(&node.pose, &self.goal, model.radius, &mut buf.rs);
+        buf.shots.clear();
+        for p in buf.rs.as_slice() {
+            buf.shots.push(model.rs_shot(p, node.dir));
+        }
+        if model.allow_rotation {
+            buf.shots
+                .extend(model.rtr_shots(&node.pose, &self.goal, node.dir));
+        }
+        // Stable sort: ties keep the solver's fixed order, so the choice is deterministic.
+        buf.shots.sort_by(|a, b| a.cost.total_cmp(&b.cost));
+        let tries = self.cfg.analytic_candidates as usize;
+        for shot in buf.shots.iter().take(tries) {
+            self.stats.analytic_checks += 1;
+            if shot_reaches_goal(&self.checker, &node.pose, shot, &self.goal, self.stats) {
+                return Some(*shot);
+            }
+        }
+        None
+    }
+
+    /// Opens (or reopens with a lower g) the child of `node` (index `ni`) at the end of
+    /// every primitive that lands on the grid, in a state not closed, is collision free
+    /// and has a heuristic (its cell is reachable from the goal).
+    #[inline]
+    pub(crate) fn expand(&mut self, ni: usize, node: &Node) {
+        let model = self.model;
+        for (pi, prim) in model.prims.iter().enumerate() {
+            let pose = prim.end(&node.pose);
+            let Some(state) = self.grid.state(&pose, model) else {
+                continue;
+            };
+            let buf = &mut *self.buf;
+            let existing = buf.state_node[state as usize];
+            if existing != NONE && buf.nodes[existing as usize].closed {
+                continue;
+            }
+            let dir = model.prim_dir[pi];
+            let g = node.g + model.prim_cost[pi] + model.switch(node.dir, dir);
+            if existing != NONE && buf.nodes[existing as usize].g <= g {
+                continue;
+            }
+            let probes = &mut self.stats.collision_probes;
+            if !self.checker.motion_free(&node.pose, prim, probes) {
+                continue;
+            }
+            let Some(h2d) = self.heur.metres(pose.x, pose.y) else {
+                continue;
+            };
+            let child = Node {
+                pose,
+                g,
+                h: h2d * model.min_cost_per_metre,
+                parent: ni as u32,
+                state,
+                prim: pi as u8,
+                dir,
+                closed: false,
+                h_full: false,
+            };
+            if existing == NONE {
+                buf.push_node(child);
+                self.stats.nodes += 1;
+            } else {
+                buf.reopen(existing, child);
+            }
+        }
+    }
+}
+
+/// The goal test of an analytic expansion: every motion of `shot` from `from` is
+/// collision free and the chain ends on the goal.
+#[inline]
+pub(crate) fn shot_reaches_goal(
+    checker: &FootprintChecker,
+    from: &Pose2,
+    shot: &Shot,
+    goal: &Pose2,
+    stats: &mut PlanStats,
+) -> bool {
+    let mut pose = *from;
+    for m in shot.motions() {
+        if !checker.motion_free(&pose, m, &mut stats.collision_probes) {
+            return false;
+        }
+        pose = m.end(&pose);
+    }
+    pose.distance(goal) < 1e-6 && pose.heading_error(goal) < 1e-6
+}
+
+impl Buffers {
+    pub(crate) fn reset(&mut self, states: usize) {
+        for n in &self.nodes {
+            if let Some(s) = self.state_node.get_mut(n.state as usize) {
+                *s = NONE;
+            }
+        }
+        if self.state_node.len() < states {
+            self.state_node.resize(states, NONE);
+        }
+        self.nodes.clear();
+        self.open.clear();
+    }
+
+    pub(crate) fn push_node(&mut self, n: Node) {
+        let idx = self.nodes.len() as u32;
+        self.state_node[n.state as usize] = idx;
+        self.open.push(OpenEntry {
+            f: n.g + n.h,
+            g: n.g,
+            node: idx,
+        });
+        self.nodes.push(n);
+    }
+
+    /// Replaces node `existing` by `child` (same state, lower g) and queues it again;
+    /// its old open entry goes stale (its g no longer matches).
+    #[inline]
+    pub(crate) fn reopen(&mut self, existing: u32, child: Node) {
+        self.nodes[existing as usize] = child;
+        self.open.push(OpenEntry {
+            f: child.g + child.h,
+            g: child.g,
+            node: existing,
+        });
+    }
+
+    /// Samples the motions from the start to `last` and then `shot` into `raw`.
+    pub(crate) fn trace(
+        &mut self,
+        last: usize,
+        model: &Model,
+        shot: &Shot,
+        spacing: f64,
+        rot: f64,
+    ) {
+        self.chain.clear();
+        let mut i = last as u32;
+        while i != NONE {
+            self.chain.push(i);
+            i = self.nodes[i as usize].parent;
+        }
+        self.raw.clear();
+        for w in self.chain.windows(2).rev() {
+            let (child, parent) = (&self.nodes[w[0] as usize], &self.nodes[w[1] as usize]);
+            let m = model.prims[child.prim as usize];
+            append_motion(&mut self.raw, &parent.pose, &m, spacing, rot);
+        }
+        let mut pose = self.nodes[last].pose;
+        for m in shot.motions() {
+            append_motion(&mut self.raw, &pose, m, spacing, rot);
+            pose = m.end(&pose);
+        }
+        if self.raw.is_empty() {
+            self.raw
+                .push(PathPose::new(pose, aisle_geometry::Direction::Forward));
+        }
+        finish(&mut self.raw, pose);
+    }
+}
+
+/// Geometry of the dense closed-set grid over the map's extent.
+pub(crate) struct SearchGrid {
+    pub(crate) origin_x: f64,
+    pub(crate) origin_y: f64,
+    pub(crate) cell: f64,
+    pub(crate) nx: usize,
+    pub(crate) ny: usize,
+    pub(crate) bins: usize,
+}
+
+impl SearchGrid {
+    pub(crate) fn new(map: &GridView, cell: f64, bins: u32) -> Self {
+        let (x0, y0, x1, y1) = map.bounds();
+        Self {
+            origin_x: x0,
+            origin_y: y0,
+            cell,
+            nx: ((x1 - x0) / cell).ceil() as usize,
+            ny: ((y1 - y0) / cell).ceil() as usize,
+            bins: bins as usize,
+        }
+    }
+
+    pub(crate) fn states(&self) -> usize {
+        self.nx * self.ny * self.bins
+    }
+
+    #[inline]
+    pub(crate) fn state(&self, p: &Pose2, model: &Model) -> Option<u32> {
+        let fx = ((p.x - self.origin_x) / self.cell).floor();
+        let fy = ((p.y - self.origin_y) / self.cell).floor();
+        if fx < 0.0 || fy < 0.0 || fx >= self.nx as f64 || fy >= self.ny as f64 {
+            return None;
+        }
+        let cell = fy as usize * self.nx + fx as usize;
+        Some((cell * self.bins + model.bin(p.theta) as usize) as u32)
+    }
+}
