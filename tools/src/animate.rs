@@ -8,7 +8,7 @@
 //! Reads the raw channels of the file; knows the message layouts, not the processes.
 
 use crate::reader::RecordFile;
-use crate::render::{RenderError, RenderOptions, SEGMENT_COLORS, render_file};
+use crate::render::{RenderError, RenderOptions, SEGMENT_COLORS, render_file, write_output};
 use aisle_messages::topics::names as s;
 use aisle_messages::{
     ControllerBand, MAX_BODIES, MAX_COMMANDS, MissionStatus, RobotState, WorldTruth,
@@ -149,12 +149,23 @@ fn num(v: f64) -> String {
     if r == 0.0 { "0".into() } else { format!("{r}") }
 }
 
-fn data_json(pb: &Playback) -> String {
-    let mut j = String::from("{\"frames\":[");
-    for (i, f) in pb.frames.iter().enumerate() {
+/// Writes `items` separated by commas, each with `item`.
+fn json_list<T>(
+    j: &mut String,
+    items: impl IntoIterator<Item = T>,
+    mut item: impl FnMut(&mut String, T),
+) {
+    for (i, x) in items.into_iter().enumerate() {
         if i > 0 {
             j.push(',');
         }
+        item(j, x);
+    }
+}
+
+fn data_json(pb: &Playback) -> String {
+    let mut j = String::from("{\"frames\":[");
+    json_list(&mut j, &pb.frames, |j, f| {
         let _ = write!(
             j,
             "[{},{},{},{},{},{},{}]",
@@ -166,31 +177,19 @@ fn data_json(pb: &Playback) -> String {
             f.band.map_or(-1, |b| b as i64),
             f.bodies.map_or(-1, |b| b as i64)
         );
-    }
+    });
     j.push_str("],\"bands\":[");
-    for (i, b) in pb.bands.iter().enumerate() {
-        if i > 0 {
-            j.push(',');
-        }
+    json_list(&mut j, &pb.bands, |j, b| {
         j.push('[');
-        for (k, p) in b.iter().enumerate() {
-            if k > 0 {
-                j.push(',');
-            }
+        json_list(j, b, |j, p| {
             let _ = write!(j, "{},{}", num(p[0]), num(p[1]));
-        }
+        });
         j.push(']');
-    }
+    });
     j.push_str("],\"bodies\":[");
-    for (i, set) in pb.body_sets.iter().enumerate() {
-        if i > 0 {
-            j.push(',');
-        }
+    json_list(&mut j, &pb.body_sets, |j, set| {
         j.push('[');
-        for (k, b) in set.iter().enumerate() {
-            if k > 0 {
-                j.push(',');
-            }
+        json_list(j, set, |j, b| {
             let _ = write!(
                 j,
                 "[{},{},{},{},{}]",
@@ -200,16 +199,13 @@ fn data_json(pb: &Playback) -> String {
                 num(b[3]),
                 num(b[4])
             );
-        }
+        });
         j.push(']');
-    }
+    });
     j.push_str("],\"colors\":[");
-    for (i, c) in SEGMENT_COLORS.iter().enumerate() {
-        if i > 0 {
-            j.push(',');
-        }
+    json_list(&mut j, &SEGMENT_COLORS, |j, c| {
         let _ = write!(j, "\"rgb({},{},{})\"", c[0], c[1], c[2]);
-    }
+    });
     let _ = write!(
         j,
         "],\"robot\":[{},{}]}}",
@@ -287,10 +283,7 @@ pub fn animate(
         .replace("__TRANSFORM__", &transform)
         .replace("__DATA__", &data_json(&pb))
         .replace("__PNG__", &base64(&png));
-    std::fs::write(out_html, &html).map_err(|source| RenderError::Write {
-        path: out_html.display().to_string(),
-        source,
-    })?;
+    write_output(out_html, html.as_bytes())?;
     Ok(AnimationSummary {
         frames: pb.frames.len(),
         bands: pb.bands.len(),

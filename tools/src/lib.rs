@@ -12,8 +12,10 @@
 //!
 //! Lower layers: [`catalog`] (service -> message type), [`writer`] (the MCAP layout),
 //! [`viewer`] (Foxglove protobuf conversion), [`aligned`] (viewing bytes as messages),
-//! [`canvas`] (raster drawing and PNG). [`synthetic`] makes a deterministic fake run for
-//! tests, benchmarks and examples.
+//! [`canvas`] (raster drawing and PNG), `raw_ports` (type-erased publishers and
+//! subscribers opened by topic name, for the recorder and both replays),
+//! `payload_fields` (header fields read from raw payload bytes). [`synthetic`] makes a
+//! deterministic fake run for tests, benchmarks and examples.
 
 pub mod aligned;
 pub mod animate;
@@ -21,7 +23,9 @@ pub mod canvas;
 pub mod catalog;
 pub mod diff;
 pub mod lockstep;
+mod payload_fields;
 pub mod profile;
+mod raw_ports;
 pub mod reader;
 pub mod record;
 pub mod render;

@@ -13,14 +13,15 @@
 
 use crate::catalog::service_info;
 use crate::diff::{WALL_CLOCK_FIELDS, first_difference};
+use crate::payload_fields::{SOURCE_AT, u32_at};
+use crate::raw_ports::{RawSink, RawSource, open_sink, open_source};
 use crate::reader::ChannelInfo;
 use crate::reader::RecordFile;
-use crate::replay::{RawSink, ReplayError, check_channel, make_sink, recorded_channel};
+use crate::replay::{ReplayError, check_channel, recorded_channel};
 use crate::tick_batches::{BatchOptions, TickBatch, TickBatches};
-use aisle_bus::{Bus, BusError, Subscriber, message_bytes, signals};
+use aisle_bus::{Bus, BusError, Subscriber, signals};
 use aisle_messages::topics::names as s;
-use aisle_messages::topics::{Topic, TopicVisitor};
-use aisle_messages::{Message, NodeKind, TickDone, topics};
+use aisle_messages::{NodeKind, TickDone, topics};
 use aisle_node::tick::Awaited;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -121,43 +122,19 @@ impl LockstepSummary {
     }
 }
 
-/// Raw payloads received on one service, whatever its type.
-trait RawSource {
-    /// Appends the payload of every sample waiting that `writer` published.
-    fn drain(&self, writer: NodeKind, out: &mut Vec<Vec<u8>>) -> Result<(), BusError>;
-}
-
-impl<M: Message> RawSource for Subscriber<M> {
-    fn drain(&self, writer: NodeKind, out: &mut Vec<Vec<u8>>) -> Result<(), BusError> {
-        while let Some(sample) = self.receive()? {
-            if Message::header(&*sample).source == writer as u32 {
-                out.push(message_bytes(&*sample).to_vec());
-            }
+/// Appends the payload of every sample waiting on `source` that `writer` published.
+fn drain_from(
+    source: &dyn RawSource,
+    writer: NodeKind,
+    out: &mut Vec<Vec<u8>>,
+) -> Result<(), BusError> {
+    let writer = writer as u32;
+    while source.next_bytes(&mut |bytes| {
+        if u32_at(bytes, SOURCE_AT) == writer {
+            out.push(bytes.to_vec());
         }
-        Ok(())
-    }
-}
-
-struct SourceOf<'b> {
-    bus: &'b Bus,
-    made: Option<Result<Box<dyn RawSource>, BusError>>,
-}
-
-impl TopicVisitor for SourceOf<'_> {
-    fn visit<T: Message>(&mut self, topic: Topic<T>) {
-        self.made = Some(
-            self.bus
-                .subscriber(topic)
-                .map(|p| Box::new(p) as Box<dyn RawSource>),
-        );
-    }
-}
-
-/// A subscriber of raw payloads on `service`; `None` when no topic has that name.
-fn make_source(bus: &Bus, service: &str) -> Result<Option<Box<dyn RawSource>>, BusError> {
-    let mut source = SourceOf { bus, made: None };
-    topics::visit(service, &mut source);
-    source.made.transpose()
+    })? {}
+    Ok(())
 }
 
 /// Ports of a lockstep replay, created before any consumer starts so that nothing it
@@ -194,14 +171,14 @@ impl LockstepPorts {
                 return Err(ReplayError::NotReplayable(t.clone()));
             }
             check_channel(path, recorded_channel(path, &recorded, t)?)?;
-            if let Some(sink) = make_sink(bus, t)? {
+            if let Some(sink) = open_sink(bus, t)? {
                 sinks.insert(t.clone(), sink);
             }
         }
         let mut sources = Vec::new();
         for (t, node) in &opts.compare {
             check_channel(path, recorded_channel(path, &recorded, t)?)?;
-            if let Some(src) = make_source(bus, t)? {
+            if let Some(src) = open_source(bus, t)? {
                 sources.push((t.clone(), *node, src));
             }
         }
@@ -236,6 +213,7 @@ pub fn replay_lockstep(
             summary.stopped = true;
             break;
         }
+        // Before the start offset: only the newest state is kept, to go out first.
         let first = *first_stamp.get_or_insert(batch.stamp_ns);
         if batch.stamp_ns < first.saturating_add(opts.start_offset_ns) {
             for m in &batch.publish {
@@ -251,6 +229,7 @@ pub fn replay_lockstep(
                 publish(ports, &mut summary, &topic, &data)?;
             }
         }
+        // The tick: its inputs, the consumers' acknowledgements, their outputs.
         for m in &batch.publish {
             publish(ports, &mut summary, &m.channel.topic, &m.data)?;
         }
@@ -260,57 +239,14 @@ pub fn replay_lockstep(
             .filter(|(n, _)| opts.consumers.contains(n))
             .copied()
             .collect();
-        for (node, status) in wait_acks(ports, &batch, &pending, opts.ack_timeout, alive)? {
-            if opts.compare.is_empty() {
-                continue;
-            }
-            let recorded = batch.acked.iter().find(|(n, _)| *n == node).map(|a| a.1);
-            *summary
-                .compared
-                .entry(s::TICK_DONE.to_string())
-                .or_default() += 1;
-            if recorded != Some(status) {
-                summary.diverge(
-                    &batch,
-                    s::TICK_DONE,
-                    format!(
-                        "{} status: recorded {}, live {status}",
-                        node.name(),
-                        recorded.map_or("none".to_string(), |r| r.to_string())
-                    ),
-                );
-            }
+        let statuses = wait_acks(ports, &batch, &pending, opts.ack_timeout, alive)?;
+        if !opts.compare.is_empty() {
+            compare_statuses(&mut summary, &batch, &statuses);
         }
         for (service, writer, source) in &ports.sources {
             live.clear();
-            source.drain(*writer, &mut live)?;
-            let recorded: Vec<&Vec<u8>> = batch
-                .outputs
-                .iter()
-                .filter(|m| &m.channel.topic == service)
-                .map(|m| &m.data)
-                .collect();
-            let type_name = service_info(service).map_or("", |i| i.type_name);
-            *summary.compared.entry(service.clone()).or_default() +=
-                recorded.len().max(live.len()) as u64;
-            if recorded.len() != live.len() {
-                summary.diverge(
-                    &batch,
-                    service,
-                    format!(
-                        "recorded {} samples, live {} (from {})",
-                        recorded.len(),
-                        live.len(),
-                        writer.name()
-                    ),
-                );
-                continue;
-            }
-            for (r, l) in recorded.iter().zip(&live) {
-                if let Some(d) = first_difference(type_name, r, l, &WALL_CLOCK_FIELDS) {
-                    summary.diverge(&batch, service, d.to_string());
-                }
-            }
+            drain_from(source.as_ref(), *writer, &mut live)?;
+            compare_outputs(&mut summary, &batch, service, *writer, &live);
         }
         summary.ticks += 1;
     }
@@ -318,6 +254,70 @@ pub fn replay_lockstep(
         summary.truncated = Some(e.to_string());
     }
     Ok(summary)
+}
+
+/// Compares the statuses the live consumers acknowledged `batch` with the recorded ones.
+fn compare_statuses(
+    summary: &mut LockstepSummary,
+    batch: &TickBatch,
+    statuses: &[(NodeKind, u32)],
+) {
+    for &(node, status) in statuses {
+        let recorded = batch.acked.iter().find(|(n, _)| *n == node).map(|a| a.1);
+        *summary
+            .compared
+            .entry(s::TICK_DONE.to_string())
+            .or_default() += 1;
+        if recorded != Some(status) {
+            summary.diverge(
+                batch,
+                s::TICK_DONE,
+                format!(
+                    "{} status: recorded {}, live {status}",
+                    node.name(),
+                    recorded.map_or("none".to_string(), |r| r.to_string())
+                ),
+            );
+        }
+    }
+}
+
+/// Compares what `writer` published live on `service` during `batch` with the
+/// recording: first the sample counts, then each pair field by field.
+fn compare_outputs(
+    summary: &mut LockstepSummary,
+    batch: &TickBatch,
+    service: &str,
+    writer: NodeKind,
+    live: &[Vec<u8>],
+) {
+    let recorded: Vec<&Vec<u8>> = batch
+        .outputs
+        .iter()
+        .filter(|m| m.channel.topic == service)
+        .map(|m| &m.data)
+        .collect();
+    let type_name = service_info(service).map_or("", |i| i.type_name);
+    *summary.compared.entry(service.to_string()).or_default() +=
+        recorded.len().max(live.len()) as u64;
+    if recorded.len() != live.len() {
+        summary.diverge(
+            batch,
+            service,
+            format!(
+                "recorded {} samples, live {} (from {})",
+                recorded.len(),
+                live.len(),
+                writer.name()
+            ),
+        );
+        return;
+    }
+    for (r, l) in recorded.iter().zip(live) {
+        if let Some(d) = first_difference(type_name, r, l, &WALL_CLOCK_FIELDS) {
+            summary.diverge(batch, service, d.to_string());
+        }
+    }
 }
 
 fn publish(

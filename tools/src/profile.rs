@@ -10,6 +10,7 @@
 //! Knows the recorded file and the headers; not how the stages compute.
 
 use crate::aligned::AlignedBuf;
+use crate::payload_fields::{PUBLISH_WALL_AT, TICK_AT, TICK_WALL_AT, u64_at};
 use crate::reader::{ReadError, RecordFile};
 use aisle_messages::topics::names as s;
 use aisle_messages::{NodeKind, PlanResponse, StageStatus, TickDone};
@@ -112,124 +113,142 @@ pub fn profile_with(path: &Path, opts: &ProfileOptions) -> Result<ProfileReport,
     profile_file(&file, opts)
 }
 
-/// Header fields at fixed offsets (checked in `record.rs` tests).
-fn header_u64(b: &[u8], at: usize) -> u64 {
-    let mut w = [0u8; 8];
-    w.copy_from_slice(&b[at..at + 8]);
-    u64::from_le_bytes(w)
-}
-const TICK_AT: usize = 16;
-const TICK_WALL_AT: usize = 24;
-const PUBLISH_WALL_AT: usize = 32;
+/// Services whose output latency is measured, in report order.
+const LATENCY_SERVICES: [&str; 4] = [
+    s::POINT_CLOUD,
+    s::LOCAL_MAP,
+    s::GLOBAL_MAP,
+    s::CONTROLLER_BAND,
+];
 
-pub fn profile_file(
-    file: &RecordFile,
-    opts: &ProfileOptions,
-) -> Result<ProfileReport, ProfileError> {
-    let mut compute: Vec<(NodeKind, Vec<(u64, u64)>)> = Vec::new();
-    let latency_services = [
-        s::POINT_CLOUD,
-        s::LOCAL_MAP,
-        s::GLOBAL_MAP,
-        s::CONTROLLER_BAND,
-    ];
-    let mut latency: Vec<Vec<(u64, u64)>> = vec![Vec::new(); latency_services.len()];
-    let mut e2e = Vec::new();
-    let mut solve = Vec::new();
-    let mut period = Vec::new();
-    let mut last_tick_wall: Option<u64> = None;
-    let mut truncated = None;
-    let mut buf = AlignedBuf::new();
-    for m in file.raw_messages() {
-        let m = match m {
-            Ok(m) => m,
-            Err(e) => {
-                truncated = Some(e.to_string());
-                break;
-            }
-        };
-        if m.data.len() < 48 {
-            continue;
+/// The raw series, gathered in one pass over the file.
+#[derive(Default)]
+struct Collected {
+    compute: Vec<(NodeKind, Vec<(u64, u64)>)>,
+    latency: [Vec<(u64, u64)>; LATENCY_SERVICES.len()],
+    e2e: Vec<(u64, u64)>,
+    solve: Vec<(u64, u64)>,
+    period: Vec<(u64, u64)>,
+    last_tick_wall: Option<u64>,
+    buf: AlignedBuf,
+}
+
+impl Collected {
+    /// Adds what one recorded payload of `topic` says.
+    fn add(&mut self, topic: &str, data: &[u8]) {
+        if data.len() < 48 {
+            return;
         }
-        let topic = m.channel.topic.as_str();
-        let tick = header_u64(&m.data, TICK_AT);
-        let tick_wall = header_u64(&m.data, TICK_WALL_AT);
-        let published = header_u64(&m.data, PUBLISH_WALL_AT);
+        let tick = u64_at(data, TICK_AT);
+        let tick_wall = u64_at(data, TICK_WALL_AT);
+        let published = u64_at(data, PUBLISH_WALL_AT);
         let since_tick = (tick_wall != 0 && published >= tick_wall).then(|| published - tick_wall);
         match topic {
             s::TICK_DONE => {
-                buf.set(&m.data);
+                self.buf.set(data);
                 // Idle acknowledgements (a stage with nothing to do on this tick) are
                 // not compute samples.
-                if let Some(d) = buf.view::<TickDone>()
+                if let Some(d) = self.buf.view::<TickDone>()
                     && d.status != StageStatus::Idle as u32
                     && let Some(kind) = NodeKind::from_u32(d.node)
                 {
-                    match compute.iter_mut().find(|(k, _)| *k == kind) {
+                    match self.compute.iter_mut().find(|(k, _)| *k == kind) {
                         Some((_, v)) => v.push((tick, d.compute_ns)),
-                        None => compute.push((kind, vec![(tick, d.compute_ns)])),
+                        None => self.compute.push((kind, vec![(tick, d.compute_ns)])),
                     }
                 }
             }
             s::TRAJECTORY => {
                 if let Some(l) = since_tick {
-                    e2e.push((tick, l));
+                    self.e2e.push((tick, l));
                 }
             }
             s::PLAN_RESPONSE => {
-                buf.set(&m.data);
-                if let Some(r) = buf.view::<PlanResponse>() {
-                    solve.push((tick, r.solve_ns));
+                self.buf.set(data);
+                if let Some(r) = self.buf.view::<PlanResponse>() {
+                    self.solve.push((tick, r.solve_ns));
                 }
             }
             s::TICK => {
-                if let Some(prev) = last_tick_wall
+                if let Some(prev) = self.last_tick_wall
                     && published > prev
                 {
-                    period.push((tick, published - prev));
+                    self.period.push((tick, published - prev));
                 }
-                last_tick_wall = Some(published);
+                self.last_tick_wall = Some(published);
             }
             _ => {}
         }
-        if let Some(i) = latency_services.iter().position(|x| *x == topic)
+        if let Some(i) = LATENCY_SERVICES.iter().position(|x| *x == topic)
             && let Some(l) = since_tick
         {
-            latency[i].push((tick, l));
+            self.latency[i].push((tick, l));
         }
     }
-    compute.sort_by_key(|(k, _)| *k as u32);
-    let d = opts.deadline_ns;
-    let series = |name: String, samples: Vec<(u64, u64)>| {
-        let values: Vec<u64> = samples.iter().map(|x| x.1).collect();
-        Stats::of(&values, d).map(|stats| Series {
-            name,
-            samples,
-            stats,
+
+    /// The series with their figures; `None` when there is nothing to report.
+    fn report(self, deadline_ns: u64, truncated: Option<String>) -> Option<ProfileReport> {
+        let Collected {
+            mut compute,
+            latency,
+            e2e,
+            solve,
+            period,
+            ..
+        } = self;
+        compute.sort_by_key(|(k, _)| *k as u32);
+        let d = deadline_ns;
+        let series = |name: String, samples: Vec<(u64, u64)>| {
+            let values: Vec<u64> = samples.iter().map(|x| x.1).collect();
+            Stats::of(&values, d).map(|stats| Series {
+                name,
+                samples,
+                stats,
+            })
+        };
+        let mut stages = Vec::new();
+        for (kind, v) in compute {
+            stages.extend(series(format!("compute {}", kind.name()), v));
+        }
+        for (svc, v) in LATENCY_SERVICES.iter().zip(latency) {
+            stages.extend(series(format!("latency {svc}"), v));
+        }
+        stages.extend(series("solve global_planner".into(), solve));
+        let end_to_end = series("end to end (tick -> trajectory)".into(), e2e);
+        let tick_period = series("tick period".into(), period);
+        if stages.is_empty() && end_to_end.is_none() && tick_period.is_none() {
+            return None;
+        }
+        Some(ProfileReport {
+            stages,
+            end_to_end,
+            tick_period,
+            deadline_ns: d,
+            truncated,
         })
-    };
-    let mut stages = Vec::new();
-    for (kind, v) in compute {
-        stages.extend(series(format!("compute {}", kind.name()), v));
     }
-    for (svc, v) in latency_services.iter().zip(latency) {
-        stages.extend(series(format!("latency {svc}"), v));
+}
+
+pub fn profile_file(
+    file: &RecordFile,
+    opts: &ProfileOptions,
+) -> Result<ProfileReport, ProfileError> {
+    let mut collected = Collected::default();
+    let mut truncated = None;
+    for m in file.raw_messages() {
+        match m {
+            Ok(m) => collected.add(m.channel.topic.as_str(), &m.data),
+            Err(e) => {
+                truncated = Some(e.to_string());
+                break;
+            }
+        }
     }
-    stages.extend(series("solve global_planner".into(), solve));
-    let end_to_end = series("end to end (tick -> trajectory)".into(), e2e);
-    let tick_period = series("tick period".into(), period);
-    if stages.is_empty() && end_to_end.is_none() && tick_period.is_none() {
-        return Err(ProfileError::Empty {
+    collected
+        .report(opts.deadline_ns, truncated)
+        .ok_or_else(|| ProfileError::Empty {
             path: file.path().display().to_string(),
-        });
-    }
-    Ok(ProfileReport {
-        stages,
-        end_to_end,
-        tick_period,
-        deadline_ns: d,
-        truncated,
-    })
+        })
 }
 
 fn ms(ns: f64) -> String {

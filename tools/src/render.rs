@@ -208,27 +208,42 @@ pub fn render_file(
     };
 
     if let Some(g) = &run.map {
-        for py in 0..c.height {
-            for px in 0..c.width {
-                let (x, y) = c.to_world(px, py);
-                let col = ((x - g.origin_x) / g.resolution).floor();
-                let row = ((y - g.origin_y) / g.resolution).floor();
-                if col < 0.0 || row < 0.0 || col >= f64::from(g.width) || row >= f64::from(g.height)
-                {
-                    continue;
-                }
-                match g.cells[row as usize * g.width as usize + col as usize] {
-                    1 => c.set(i64::from(px), i64::from(py), STATIC_CELL),
-                    2 => c.set(i64::from(px), i64::from(py), DETECTED),
-                    _ => {}
-                }
+        summary.detected_cells = draw_map(&mut c, g);
+    }
+    draw_bodies(&mut c, &run);
+    summary.reference_paths = run.references.len();
+    summary.bands = run.bands.len();
+    summary.driven_poses = run.driven.len();
+    draw_paths(&mut c, &run, opts.driven);
+    legend(&mut c, run.max_segment + 1);
+    Ok((c, summary))
+}
+
+/// The map's static and detected cells; returns how many cells were detected.
+fn draw_map(c: &mut Canvas, g: &OccupancyGrid) -> usize {
+    for py in 0..c.height {
+        for px in 0..c.width {
+            let (x, y) = c.to_world(px, py);
+            let col = ((x - g.origin_x) / g.resolution).floor();
+            let row = ((y - g.origin_y) / g.resolution).floor();
+            if col < 0.0 || row < 0.0 || col >= f64::from(g.width) || row >= f64::from(g.height) {
+                continue;
+            }
+            match g.cells[row as usize * g.width as usize + col as usize] {
+                1 => c.set(i64::from(px), i64::from(py), STATIC_CELL),
+                2 => c.set(i64::from(px), i64::from(py), DETECTED),
+                _ => {}
             }
         }
-        summary.detected_cells = g.cells[..g.width as usize * g.height as usize]
-            .iter()
-            .filter(|&&v| v == 2)
-            .count();
     }
+    g.cells[..g.width as usize * g.height as usize]
+        .iter()
+        .filter(|&&v| v == 2)
+        .count()
+}
+
+/// The static scene at the end, and the movable racks at the start and at the end.
+fn draw_bodies(c: &mut Canvas, run: &Run) {
     let finite = |b: &BodyTruth| {
         b.pose.x.is_finite()
             && b.pose.y.is_finite()
@@ -266,18 +281,21 @@ pub fn render_file(
     {
         c.fill_rect(rect(b), RACK, 0.45);
     }
+}
+
+/// The reference paths, the sampled bands and (when `driven`) the driven path coloured
+/// by segment, with its start and end marked.
+fn draw_paths(c: &mut Canvas, run: &Run, driven: bool) {
     for (_, r) in &run.references {
         c.polyline(r, 2.0, REFERENCE, 0.8);
     }
-    summary.reference_paths = run.references.len();
     for b in &run.bands {
         c.polyline(b, 1.5, BAND, 0.7);
         for p in b {
             c.disc(p.0, p.1, 1.5, BAND, 0.9);
         }
     }
-    summary.bands = run.bands.len();
-    let driven: &[(f64, f64, u32)] = if opts.driven { &run.driven } else { &[] };
+    let driven: &[(f64, f64, u32)] = if driven { &run.driven } else { &[] };
     for w in driven.windows(2) {
         let color = SEGMENT_COLORS[w[1].2 as usize % SEGMENT_COLORS.len()];
         c.polyline(&[(w[0].0, w[0].1), (w[1].0, w[1].1)], 3.0, color, 1.0);
@@ -287,9 +305,6 @@ pub fn render_file(
         c.disc(last.0, last.1, 6.0, [0, 0, 0], 1.0);
         c.disc(last.0, last.1, 3.5, [255, 255, 255], 1.0);
     }
-    summary.driven_poses = run.driven.len();
-    legend(&mut c, run.max_segment + 1);
-    Ok((c, summary))
 }
 
 fn legend(c: &mut Canvas, segments: u32) {
@@ -336,11 +351,16 @@ pub fn render(
     let file = RecordFile::open(path)?;
     let (canvas, summary) = render_file(&file, opts)?;
     let png = canvas.png()?;
-    std::fs::write(out_png, png).map_err(|source| RenderError::Write {
-        path: out_png.display().to_string(),
-        source,
-    })?;
+    write_output(out_png, &png)?;
     Ok(summary)
+}
+
+/// Writes a picture or page to `path`, naming it in the error.
+pub(crate) fn write_output(path: &Path, bytes: &[u8]) -> Result<(), RenderError> {
+    std::fs::write(path, bytes).map_err(|source| RenderError::Write {
+        path: path.display().to_string(),
+        source,
+    })
 }
 
 #[cfg(test)]

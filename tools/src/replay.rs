@@ -11,11 +11,11 @@
 //! consumers' acknowledgements) is not done here.
 
 use crate::catalog::{ServiceInfo, service_info, services};
+use crate::raw_ports::{RawSink, open_sink};
 use crate::reader::{ChannelInfo, ReadError, RecordFile};
-use aisle_bus::{Bus, BusError, Instance, Publisher, clock, signals};
+use aisle_bus::{Bus, BusError, Instance, clock, signals};
 use aisle_messages::topics::names as s;
-use aisle_messages::topics::{Topic, TopicVisitor};
-use aisle_messages::{Message, NodeKind, topics};
+use aisle_messages::{NodeKind, topics};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -124,39 +124,6 @@ pub struct LayoutMismatch {
     pub our_layout: String,
 }
 
-/// A publisher of recorded bytes, whatever its message type.
-pub(crate) trait RawSink {
-    fn publish(&mut self, bytes: &[u8]) -> Result<(), BusError>;
-}
-
-impl<M: Message> RawSink for Publisher<M> {
-    fn publish(&mut self, bytes: &[u8]) -> Result<(), BusError> {
-        self.publish_bytes(bytes)
-    }
-}
-
-struct SinkOf<'b> {
-    bus: &'b Bus,
-    made: Option<Result<Box<dyn RawSink>, BusError>>,
-}
-
-impl TopicVisitor for SinkOf<'_> {
-    fn visit<T: Message>(&mut self, topic: Topic<T>) {
-        self.made = Some(
-            self.bus
-                .publisher(topic)
-                .map(|p| Box::new(p) as Box<dyn RawSink>),
-        );
-    }
-}
-
-/// A publisher of raw payloads on `service`; `None` when no topic has that name.
-pub(crate) fn make_sink(bus: &Bus, service: &str) -> Result<Option<Box<dyn RawSink>>, BusError> {
-    let mut sink = SinkOf { bus, made: None };
-    topics::visit(service, &mut sink);
-    sink.made.transpose()
-}
-
 /// Checks a recorded raw channel against this build.
 pub fn check_channel(file: &std::path::Path, c: &ChannelInfo) -> Result<ServiceInfo, ReplayError> {
     let ours = service_info(&c.topic).ok_or_else(|| ReplayError::UnknownTopic {
@@ -253,7 +220,7 @@ pub fn replay(opts: &ReplayOptions) -> Result<ReplaySummary, ReplayError> {
     let mut sinks: Vec<Option<Box<dyn RawSink>>> = Vec::with_capacity(catalog.len());
     for info in &catalog {
         sinks.push(if selected.iter().any(|t| t == info.service) {
-            make_sink(&bus, info.service)?
+            open_sink(&bus, info.service)?
         } else {
             None
         });

@@ -54,44 +54,55 @@ pub struct Sample {
     pub bytes: AlignedBuf,
 }
 
-struct Seqs([u64; 32]);
-
-// Messages arrive boxed because the large ones would overflow the stack.
-#[allow(clippy::boxed_local)]
-fn push<M: Message>(
-    out: &mut Vec<Sample>,
-    seqs: &mut Seqs,
-    slot: usize,
-    service: &'static str,
-    mut m: Box<M>,
-    k: u64,
-    latency_ns: u64,
-) {
-    seqs.0[slot] += 1;
-    let tick_wall = WALL_START_NS + k * WALL_PERIOD_NS;
-    let source = writer_of(service, &*m);
-    let h = m.header_mut();
-    h.source = source as u32;
-    h.seq = seqs.0[slot];
-    h.stamp_ns = k * DT_NS;
-    h.tick = k;
-    h.tick_wall_ns = tick_wall;
-    h.publish_wall_ns = tick_wall + latency_ns;
-    let log_time = h.publish_wall_ns + 50_000;
-    out.push(Sample {
-        service,
-        log_time,
-        bytes: AlignedBuf::from_bytes(message_bytes(&*m)),
-    });
+/// The run being built: its samples so far and each publisher slot's sequence number.
+struct Run {
+    out: Vec<Sample>,
+    seqs: [u64; 32],
+    ticks: u64,
+    /// The last tick of segment 0.
+    half: u64,
 }
 
-/// The samples of a synthetic run of `ticks` ticks, in receive order. The robot drives
-/// along x from (0, 0) in segment 0 for the first half, then along y in segment 1.
-pub fn synthetic_run(ticks: u64) -> Vec<Sample> {
-    let mut out = Vec::new();
-    let mut seqs = Seqs([0; 32]);
-    let half = ticks / 2;
-    let pose_at = |k: u64| {
+impl Run {
+    // Messages arrive boxed because the large ones would overflow the stack.
+    #[allow(clippy::boxed_local)]
+    fn push<M: Message>(
+        &mut self,
+        slot: usize,
+        service: &'static str,
+        mut m: Box<M>,
+        k: u64,
+        latency_ns: u64,
+    ) {
+        self.seqs[slot] += 1;
+        let tick_wall = WALL_START_NS + k * WALL_PERIOD_NS;
+        let source = writer_of(service, &*m);
+        let h = m.header_mut();
+        h.source = source as u32;
+        h.seq = self.seqs[slot];
+        h.stamp_ns = k * DT_NS;
+        h.tick = k;
+        h.tick_wall_ns = tick_wall;
+        h.publish_wall_ns = tick_wall + latency_ns;
+        let log_time = h.publish_wall_ns + 50_000;
+        self.out.push(Sample {
+            service,
+            log_time,
+            bytes: AlignedBuf::from_bytes(message_bytes(&*m)),
+        });
+    }
+
+    fn done(&mut self, node: NodeKind, status: StageStatus, compute_ns: u64, k: u64) {
+        let mut d = zeroed_box::<TickDone>();
+        d.node = node as u32;
+        d.status = status as u32;
+        d.compute_ns = compute_ns;
+        self.push(10 + node as usize, s::TICK_DONE, d, k, compute_ns + 10_000);
+    }
+
+    /// Along x in segment 0, then along y.
+    fn pose_at(&self, k: u64) -> (f64, f64, f64) {
+        let half = self.half;
         if k <= half {
             (k as f64 * 0.1, 0.0, 0.0)
         } else {
@@ -101,16 +112,20 @@ pub fn synthetic_run(ticks: u64) -> Vec<Sample> {
                 std::f64::consts::FRAC_PI_2,
             )
         }
-    };
-    for k in 0..ticks {
-        let (x, y, th) = pose_at(k);
-        let segment = u32::from(k > half);
+    }
 
+    fn segment(&self, k: u64) -> u32 {
+        u32::from(k > self.half)
+    }
+
+    /// The simulator's tick k: robot state, ground truth, the `Tick`.
+    fn simulator(&mut self, k: u64) {
+        let (x, y, th) = self.pose_at(k);
         let mut r = zeroed_box::<RobotState>();
         r.pose.x = x;
         r.pose.y = y;
         r.pose.theta = th;
-        push(&mut out, &mut seqs, 0, s::ROBOT_STATE, r, k, 100_000);
+        self.push(0, s::ROBOT_STATE, r, k, 100_000);
 
         let mut w = zeroed_box::<WorldTruth>();
         w.len = 2;
@@ -123,13 +138,17 @@ pub fn synthetic_run(ticks: u64) -> Vec<Sample> {
         w.bodies[1].pose.x = 3.0;
         w.bodies[1].pose.y = 2.0;
         w.bodies[1].size = [0.88, 0.8, 1.0];
-        push(&mut out, &mut seqs, 1, s::WORLD_TRUTH, w, k, 120_000);
+        self.push(1, s::WORLD_TRUTH, w, k, 120_000);
 
         let mut t = zeroed_box::<Tick>();
         t.dt_ns = DT_NS;
-        t.stages = u32::from(k % 5 == 0);
-        push(&mut out, &mut seqs, 2, s::TICK, t, k, 150_000);
+        t.stages = u32::from(k.is_multiple_of(5));
+        self.push(2, s::TICK, t, k, 150_000);
+    }
 
+    /// The lidar's cloud of tick k (one missing return) and its acknowledgement.
+    fn lidar(&mut self, k: u64) {
+        let (x, y, th) = self.pose_at(k);
         let mut c = zeroed_box::<PointCloud>();
         c.rows = 2;
         c.cols = 4;
@@ -145,79 +164,42 @@ pub fn synthetic_run(ticks: u64) -> Vec<Sample> {
         c.robot_pose.theta = th;
         c.sensor_pose.position = [x + 0.25, y + 0.1, 0.2];
         c.sensor_pose.rpy = [0.0, 0.0, th];
-        push(
-            &mut out,
-            &mut seqs,
-            3,
-            s::POINT_CLOUD,
-            c,
-            k,
-            lidar_compute_ns(k),
-        );
-        done(
-            &mut out,
-            &mut seqs,
-            NodeKind::Lidar,
-            StageStatus::Done,
-            lidar_compute_ns(k),
-            k,
-        );
+        self.push(3, s::POINT_CLOUD, c, k, lidar_compute_ns(k));
+        self.done(NodeKind::Lidar, StageStatus::Done, lidar_compute_ns(k), k);
+    }
 
-        if k % 10 == 0 {
-            push(
-                &mut out,
-                &mut seqs,
-                4,
-                s::GLOBAL_MAP,
-                grid(0, k),
-                k,
-                3_000_000,
-            );
+    /// The mapper's maps of tick k (the global one every 10th) and its acknowledgement.
+    fn mapper(&mut self, k: u64) {
+        if k.is_multiple_of(10) {
+            self.push(4, s::GLOBAL_MAP, grid(0, k), k, 3_000_000);
         }
-        push(
-            &mut out,
-            &mut seqs,
-            5,
-            s::LOCAL_MAP,
-            grid(1, k),
-            k,
-            3_000_000,
-        );
-        done(
-            &mut out,
-            &mut seqs,
-            NodeKind::Mapper,
-            StageStatus::Done,
-            mapper_compute_ns(k),
-            k,
-        );
+        self.push(5, s::LOCAL_MAP, grid(1, k), k, 3_000_000);
+        self.done(NodeKind::Mapper, StageStatus::Done, mapper_compute_ns(k), k);
+    }
 
-        if k == 0 || k == half + 1 {
+    /// A goal at the start of each segment; every 5th tick a trajectory and a band,
+    /// else an idle acknowledgement.
+    fn controller(&mut self, k: u64) {
+        let (x, y, th) = self.pose_at(k);
+        let segment = self.segment(k);
+        if k == 0 || k == self.half + 1 {
             let mut g = zeroed_box::<ControllerGoal>();
             g.goal_id = u64::from(segment) + 1;
             g.len = 20;
             for (i, p) in g.reference[..20].iter_mut().enumerate() {
-                let (px, py, pth) = pose_at(k + i as u64 * ticks / 40);
+                let (px, py, pth) = self.pose_at(k + i as u64 * self.ticks / 40);
                 p.x = px;
                 p.y = py;
                 p.theta = pth;
                 p.direction = 1;
             }
-            push(&mut out, &mut seqs, 6, s::CONTROLLER_GOAL, g, k, 200_000);
+            self.push(6, s::CONTROLLER_GOAL, g, k, 200_000);
         }
-        if k % 5 == 0 {
+        if k.is_multiple_of(5) {
             let mut tr = zeroed_box::<Trajectory>();
             tr.len = 3;
             tr.goal_id = u64::from(segment) + 1;
-            push(
-                &mut out,
-                &mut seqs,
-                7,
-                s::TRAJECTORY,
-                tr,
-                k,
-                trajectory_latency_ns(k),
-            );
+            self.push(7, s::TRAJECTORY, tr, k, trajectory_latency_ns(k));
             let mut b = zeroed_box::<ControllerBand>();
             b.len = 5;
             for (i, p) in b.poses[..5].iter_mut().enumerate() {
@@ -226,18 +208,8 @@ pub fn synthetic_run(ticks: u64) -> Vec<Sample> {
                 p.y = y + if th == 0.0 { 0.0 } else { i as f64 * 0.3 };
                 p.theta = th;
             }
-            push(
-                &mut out,
-                &mut seqs,
-                8,
-                s::CONTROLLER_BAND,
-                b,
-                k,
-                trajectory_latency_ns(k),
-            );
-            done(
-                &mut out,
-                &mut seqs,
+            self.push(8, s::CONTROLLER_BAND, b, k, trajectory_latency_ns(k));
+            self.done(
                 NodeKind::TebController,
                 StageStatus::Done,
                 trajectory_latency_ns(k) - 500_000,
@@ -246,49 +218,43 @@ pub fn synthetic_run(ticks: u64) -> Vec<Sample> {
         }
         if !k.is_multiple_of(5) {
             // The controller acknowledges the ticks it does not act on as idle.
-            done(
-                &mut out,
-                &mut seqs,
-                NodeKind::TebController,
-                StageStatus::Idle,
-                0,
-                k,
-            );
+            self.done(NodeKind::TebController, StageStatus::Idle, 0, k);
         }
-        if k == 0 || k == half + 1 || k + 1 == ticks {
+    }
+
+    /// The mission status at the start of each segment and at the end.
+    fn mission(&mut self, k: u64) {
+        if k == 0 || k == self.half + 1 || k + 1 == self.ticks {
+            let segment = self.segment(k);
             let mut st = zeroed_box::<MissionStatus>();
             st.segment = segment;
             st.segments = 2;
             st.state = 2;
             write_name(&mut st.text, &format!("driving segment {segment}"));
-            push(&mut out, &mut seqs, 9, s::MISSION_STATUS, st, k, 300_000);
+            self.push(9, s::MISSION_STATUS, st, k, 300_000);
         }
     }
-    out.sort_by_key(|s| s.log_time);
-    out
 }
 
-fn done(
-    out: &mut Vec<Sample>,
-    seqs: &mut Seqs,
-    node: NodeKind,
-    status: StageStatus,
-    compute_ns: u64,
-    k: u64,
-) {
-    let mut d = zeroed_box::<TickDone>();
-    d.node = node as u32;
-    d.status = status as u32;
-    d.compute_ns = compute_ns;
-    push(
-        out,
-        seqs,
-        10 + node as usize,
-        s::TICK_DONE,
-        d,
-        k,
-        compute_ns + 10_000,
-    );
+/// The samples of a synthetic run of `ticks` ticks, in receive order. The robot drives
+/// along x from (0, 0) in segment 0 for the first half, then along y in segment 1.
+pub fn synthetic_run(ticks: u64) -> Vec<Sample> {
+    let mut run = Run {
+        out: Vec::new(),
+        seqs: [0; 32],
+        ticks,
+        half: ticks / 2,
+    };
+    for k in 0..ticks {
+        run.simulator(k);
+        run.lidar(k);
+        run.mapper(k);
+        run.controller(k);
+        run.mission(k);
+    }
+    let mut out = run.out;
+    out.sort_by_key(|s| s.log_time);
+    out
 }
 
 /// A 40 x 60 map (20 x 30 m at 0.5 m) with a static wall and, from tick 20 on, a detected

@@ -12,6 +12,9 @@
 //! so only a few ticks are held in memory. Knows the file and the message headers; it
 //! does not publish anything.
 
+use crate::payload_fields::{
+    DONE_NODE_AT, DONE_STATUS_AT, SOURCE_AT, STAMP_AT, TICK_AT, u32_at, u64_at,
+};
 use crate::reader::{FileMessage, Messages, ReadError, RecordFile};
 use aisle_messages::NodeKind;
 use aisle_messages::topics::names as s;
@@ -49,30 +52,6 @@ pub struct HeaderFields {
     pub tick: u64,
     pub source: u32,
 }
-
-fn u64_at(b: &[u8], at: usize) -> u64 {
-    let mut w = [0u8; 8];
-    if at < b.len() {
-        let n = (b.len() - at).min(8);
-        w[..n].copy_from_slice(&b[at..at + n]);
-    }
-    u64::from_le_bytes(w)
-}
-
-fn u32_at(b: &[u8], at: usize) -> u32 {
-    let mut w = [0u8; 4];
-    if at < b.len() {
-        let n = (b.len() - at).min(4);
-        w[..n].copy_from_slice(&b[at..at + n]);
-    }
-    u32::from_le_bytes(w)
-}
-
-const STAMP_AT: usize = std::mem::offset_of!(aisle_messages::Header, stamp_ns);
-const TICK_AT: usize = std::mem::offset_of!(aisle_messages::Header, tick);
-const SOURCE_AT: usize = std::mem::offset_of!(aisle_messages::Header, source);
-const DONE_NODE_AT: usize = std::mem::offset_of!(aisle_messages::TickDone, node);
-const DONE_STATUS_AT: usize = std::mem::offset_of!(aisle_messages::TickDone, status);
 
 pub fn header_fields(payload: &[u8]) -> HeaderFields {
     HeaderFields {

@@ -9,6 +9,7 @@
 //! (truncated to 32 bits). This module knows the file format, not the bus.
 
 use crate::catalog::{ServiceInfo, services};
+use crate::payload_fields::{SEQ_AT, STAMP_AT, u64_at};
 use crate::viewer::{ViewerMessage, ViewerTopic};
 use mcap::records::MessageHeader;
 use std::collections::BTreeMap;
@@ -213,17 +214,12 @@ impl<W: Write + Seek> RecordWriter<W> {
                 want: info.size,
             });
         }
-        // Every message starts with the header: seq at 0, stamp_ns at 8.
-        let word = |at: usize| {
-            let mut b = [0u8; 8];
-            b.copy_from_slice(&payload[at..at + 8]);
-            u64::from_le_bytes(b)
-        };
+        // Every message starts with the header.
         let header = MessageHeader {
             channel_id: *channel_id,
-            sequence: word(0) as u32,
+            sequence: u64_at(payload, SEQ_AT) as u32,
             log_time: log_time_ns,
-            publish_time: word(8),
+            publish_time: u64_at(payload, STAMP_AT),
         };
         let stored = if self.trim {
             &payload[..trimmed_len(payload)]

@@ -1,0 +1,222 @@
+//! The recorder's node thread: drains every subscriber, copies each new payload into a
+//! reused buffer for the writer thread, counts what is lost, and acknowledges lockstep
+//! ticks once everything before the acknowledgements it waits for is drained.
+//!
+//! Knows the bus ports and the header fields; not the file layout (the writer thread
+//! writes) nor the run's metadata. Ends on a stop request (as `StopRequested`), when the
+//! parent process goes away, when the writer stopped, and after `idle_stop` without
+//! traffic from other processes.
+
+use super::answer::AnswerRule;
+use super::seq::{SeqTracker, SeqVerdict};
+use super::write::Job;
+use super::{RecordSummary, RecorderOptions};
+use crate::aligned::AlignedBuf;
+use crate::payload_fields::{DONE_NODE_AT, SOURCE_AT, TICK_AT, u32_at, u64_at};
+use crate::raw_ports::RawSource;
+use crate::writer::trimmed_len;
+use aisle_bus::{BusError, HeartbeatSender, NodeError, Publisher, Stamp, clock, signals};
+use aisle_messages::{NodeKind, NodeState, StageStatus, TickDone, topics};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::mpsc;
+use std::time::Instant;
+
+/// The ports and queues the drain works with (owned by the caller, which still needs
+/// them after the drain ended).
+pub(super) struct DrainPorts<'a> {
+    /// Every subscriber, with its index in `names` (and in the writer's raw channels).
+    pub sources: &'a [(usize, Box<dyn RawSource>)],
+    pub acks: &'a mut Publisher<TickDone>,
+    pub heartbeat: &'a mut HeartbeatSender,
+    pub jobs: &'a mpsc::Sender<Job>,
+    pub free: &'a mpsc::Receiver<(usize, AlignedBuf)>,
+    pub queued: &'a AtomicUsize,
+    pub names: &'a [&'static str],
+    pub options: &'a RecorderOptions,
+    /// The parent process when the recorder started.
+    pub parent: u32,
+}
+
+/// What the drain remembers from one sample to the next.
+struct Taker<'a> {
+    names: &'a [&'static str],
+    options: &'a RecorderOptions,
+    queued: &'a AtomicUsize,
+    /// Reusable buffers per source.
+    pool: Vec<Vec<AlignedBuf>>,
+    seqs: SeqTracker,
+    /// Whether a loss on a source has been logged already.
+    warned: Vec<bool>,
+    tick_done: Option<usize>,
+    answer: AnswerRule,
+    /// The newest tick completed by the acknowledgements the recorder waits for and not
+    /// acknowledged by it yet.
+    unanswered: Option<u64>,
+    last_traffic: Instant,
+}
+
+/// Drains until the recording ends (see the module docs).
+pub(super) fn drain(
+    ports: DrainPorts<'_>,
+    answer: AnswerRule,
+    summary: &mut RecordSummary,
+) -> Result<(), NodeError> {
+    let DrainPorts {
+        sources,
+        acks,
+        heartbeat,
+        jobs,
+        free,
+        queued,
+        names,
+        options,
+        parent,
+    } = ports;
+    let mut taker = Taker {
+        names,
+        options,
+        queued,
+        pool: vec![Vec::new(); sources.len()],
+        seqs: SeqTracker::default(),
+        warned: vec![false; sources.len()],
+        tick_done: names.iter().position(|n| *n == topics::TICK_DONE.name),
+        // The acknowledgements of the recorder's `after` nodes (the supervisor's) are
+        // the last messages of tick k; once everything before them is drained, the
+        // recorder acknowledges k too, and a lockstep simulator that waits for it loses
+        // nothing. A repeated one is answered too: a restarted simulator repeats the
+        // tick it died in and waits for everyone again.
+        answer,
+        unanswered: None,
+        last_traffic: Instant::now(),
+    };
+    loop {
+        if signals::stop_requested() {
+            return Err(BusError::StopRequested.into());
+        }
+        if std::os::unix::process::parent_id() != parent {
+            tracing::warn!("recorder: the parent process exited; finalising");
+            return Ok(());
+        }
+        while let Ok((i, buf)) = free.try_recv() {
+            taker.pool[i].push(buf);
+        }
+        let received = drain_sources(sources, jobs, &mut taker, summary)?;
+        heartbeat.tick(NodeState::Running)?;
+        if received == 0 {
+            if let Some(t) = taker.unanswered.take() {
+                acknowledge(acks, t)?;
+            }
+            if let Some(idle) = options.idle_stop
+                && taker.last_traffic.elapsed() >= idle
+            {
+                tracing::info!(
+                    "recorder: nothing published for {:.1} s; the group has ended, finalising",
+                    idle.as_secs_f64()
+                );
+                return Ok(());
+            }
+            std::thread::sleep(options.poll_period);
+        }
+    }
+}
+
+/// Takes every waiting sample of every source; returns how many there were.
+fn drain_sources(
+    sources: &[(usize, Box<dyn RawSource>)],
+    jobs: &mpsc::Sender<Job>,
+    taker: &mut Taker<'_>,
+    summary: &mut RecordSummary,
+) -> Result<usize, NodeError> {
+    let mut received = 0usize;
+    let mut writer_gone = false;
+    for (i, src) in sources {
+        let i = *i;
+        loop {
+            let log_time = clock::monotonic_ns();
+            let mut job = None;
+            let got = src.next_bytes(&mut |bytes| job = taker.take(i, log_time, bytes, summary))?;
+            if !got {
+                break;
+            }
+            received += 1;
+            if let Some(job) = job
+                && jobs.send(job).is_err()
+            {
+                writer_gone = true;
+            }
+        }
+    }
+    if writer_gone {
+        // The writer stopped on an error; it is reported when the thread is joined.
+        return Err(NodeError::Protocol("recorder: the writer stopped".into()));
+    }
+    Ok(received)
+}
+
+/// The recorder's own acknowledgement of tick `t`.
+fn acknowledge(acks: &mut Publisher<TickDone>, t: u64) -> Result<(), BusError> {
+    acks.publish(
+        Stamp {
+            tick: t,
+            ..Stamp::default()
+        },
+        |m| {
+            m.node = NodeKind::Recorder as u32;
+            m.status = StageStatus::Done as u32;
+        },
+    )?;
+    Ok(())
+}
+
+impl Taker<'_> {
+    /// Notes a sample of source `i` and copies it out; `None` when it is a repeat or
+    /// the writer queue is full.
+    fn take(
+        &mut self,
+        i: usize,
+        log_time: u64,
+        bytes: &[u8],
+        summary: &mut RecordSummary,
+    ) -> Option<Job> {
+        if u32_at(bytes, SOURCE_AT) != NodeKind::Recorder as u32 {
+            self.last_traffic = Instant::now();
+        }
+        if Some(i) == self.tick_done {
+            let t = u64_at(bytes, TICK_AT);
+            if self.answer.note(t, u32_at(bytes, DONE_NODE_AT)) {
+                self.unanswered = Some(self.unanswered.map_or(t, |s: u64| s.max(t)));
+            }
+        }
+        match self.seqs.check(i, bytes) {
+            SeqVerdict::Repeat => return None,
+            SeqVerdict::New { lost } if lost > 0 => {
+                *summary.lost_in_bus.entry(self.names[i]).or_default() += lost;
+                if !self.warned[i] {
+                    self.warned[i] = true;
+                    tracing::warn!(
+                        "recorder: {} lost {lost} samples on {} (counting on)",
+                        "fell behind:",
+                        self.names[i]
+                    );
+                }
+            }
+            SeqVerdict::New { .. } => {}
+        }
+        // Only the used part is copied out of shared memory (the unused capacity of
+        // clouds and grids is zero): less time in this thread.
+        let used = &bytes[..trimmed_len(bytes)];
+        if self.queued.load(Ordering::Relaxed) + used.len() > self.options.queue_bytes {
+            *summary.lost_in_queue.entry(self.names[i]).or_default() += 1;
+            return None;
+        }
+        let mut buf = self.pool[i].pop().unwrap_or_default();
+        buf.set(used);
+        self.queued.fetch_add(used.len(), Ordering::Relaxed);
+        Some(Job::Raw {
+            index: i,
+            log_time,
+            buf,
+            full_len: bytes.len(),
+        })
+    }
+}

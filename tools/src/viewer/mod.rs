@@ -1,0 +1,236 @@
+//! Turns recorded aisle messages into Foxglove's well-known protobuf messages, so a run
+//! opens in Foxglove or Lichtblick with the scene in 3D.
+//!
+//! Frames: `map` (the map frame), `base_link` (the robot base) and `sensor` (the lidar).
+//! Every viewer message is stamped with the simulated time of the message it came from.
+//! The converter keeps a little state so it emits only what changed (scene, logs) and
+//! grows the driven path. It knows nothing about files or the bus.
+//!
+//! Modules: [`converter`] (the stateful conversion, message by message) and [`build`]
+//! (Foxglove messages from plain values, and their encoding).
+
+mod build;
+mod converter;
+
+pub use build::timestamp;
+pub use converter::ViewerConverter;
+
+use foxglove::Encode;
+use foxglove::messages as fg;
+
+/// The viewer channels, one per Foxglove message stream.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum ViewerTopic {
+    Scene,
+    Points,
+    GlobalMap,
+    LocalMap,
+    ReferencePath,
+    Band,
+    DrivenPath,
+    Transforms,
+    Log,
+}
+
+impl ViewerTopic {
+    pub const ALL: [ViewerTopic; 9] = [
+        ViewerTopic::Scene,
+        ViewerTopic::Points,
+        ViewerTopic::GlobalMap,
+        ViewerTopic::LocalMap,
+        ViewerTopic::ReferencePath,
+        ViewerTopic::Band,
+        ViewerTopic::DrivenPath,
+        ViewerTopic::Transforms,
+        ViewerTopic::Log,
+    ];
+
+    pub fn topic(self) -> &'static str {
+        match self {
+            ViewerTopic::Scene => "/viz/scene",
+            ViewerTopic::Points => "/viz/lidar/points",
+            ViewerTopic::GlobalMap => "/viz/map/global",
+            ViewerTopic::LocalMap => "/viz/map/local",
+            ViewerTopic::ReferencePath => "/viz/path/reference",
+            ViewerTopic::Band => "/viz/path/band",
+            ViewerTopic::DrivenPath => "/viz/path/driven",
+            ViewerTopic::Transforms => "/tf",
+            ViewerTopic::Log => "/viz/log",
+        }
+    }
+
+    /// The Foxglove schema (`foxglove.X`, protobuf `FileDescriptorSet`).
+    pub fn schema(self) -> Option<foxglove::Schema> {
+        match self {
+            ViewerTopic::Scene => fg::SceneUpdate::get_schema(),
+            ViewerTopic::Points => fg::PointCloud::get_schema(),
+            ViewerTopic::GlobalMap | ViewerTopic::LocalMap => fg::Grid::get_schema(),
+            ViewerTopic::ReferencePath | ViewerTopic::Band | ViewerTopic::DrivenPath => {
+                fg::PosesInFrame::get_schema()
+            }
+            ViewerTopic::Transforms => fg::FrameTransforms::get_schema(),
+            ViewerTopic::Log => fg::Log::get_schema(),
+        }
+    }
+
+    pub fn index(self) -> usize {
+        self as usize
+    }
+}
+
+/// One encoded viewer message.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ViewerMessage {
+    pub topic: ViewerTopic,
+    /// Simulated time the message is stamped with.
+    pub stamp_ns: u64,
+    pub data: Vec<u8>,
+}
+
+/// What the converter does with point clouds (the largest viewer stream).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ViewerOptions {
+    /// Convert every n-th point cloud (1 = all, 0 = none).
+    pub cloud_every: u32,
+    /// Publish the driven path every n-th robot state.
+    pub driven_every: u32,
+}
+
+impl Default for ViewerOptions {
+    fn default() -> Self {
+        Self {
+            cloud_every: 1,
+            driven_every: 10,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::aligned::{AlignedBuf, message_bytes, zeroed_box};
+    use aisle_messages::topics::names as s;
+    use aisle_messages::write_name;
+    use aisle_messages::{MissionStatus, OccupancyGrid, PointCloud, RobotState, WorldTruth};
+    use foxglove::Decode;
+
+    fn buf<M: aisle_messages::Message>(m: &M) -> AlignedBuf {
+        AlignedBuf::from_bytes(message_bytes(m))
+    }
+
+    #[test]
+    fn grid_keeps_cells_row_major_from_the_origin() {
+        let mut g = zeroed_box::<OccupancyGrid>();
+        g.width = 3;
+        g.height = 2;
+        g.resolution = 0.1;
+        g.origin_x = -5.0;
+        g.origin_y = -10.0;
+        g.cells[..6].copy_from_slice(&[0, 1, 2, 0, 0, 1]);
+        g.header.stamp_ns = 1_500_000_000;
+        let mut out = Vec::new();
+        ViewerConverter::default().convert(s::GLOBAL_MAP, &buf(&*g), &mut out);
+        assert_eq!(out.len(), 1);
+        let d = fg::Grid::decode(out[0].data.as_slice()).unwrap();
+        assert_eq!(d.column_count, 3);
+        assert_eq!(&d.data[..], &[0, 1, 2, 0, 0, 1]);
+        assert_eq!(d.timestamp, Some(fg::Timestamp::new(1, 500_000_000)));
+        let pos = d.pose.unwrap().position.unwrap();
+        assert_eq!((pos.x, pos.y), (-5.0, -10.0));
+        // An impossible size yields nothing rather than a panic.
+        g.width = 5000;
+        g.height = 5000;
+        out.clear();
+        ViewerConverter::default().convert(s::GLOBAL_MAP, &buf(&*g), &mut out);
+        assert!(out.is_empty());
+    }
+
+    #[test]
+    fn cloud_drops_missing_returns_and_places_the_sensor() {
+        let mut c = zeroed_box::<PointCloud>();
+        c.rows = 1;
+        c.cols = 3;
+        c.points[0] = [1.0, 2.0, 3.0];
+        c.points[1] = [f32::NAN; 3];
+        c.points[2] = [4.0, 5.0, 6.0];
+        c.robot_pose.x = 1.0;
+        c.robot_pose.theta = std::f64::consts::FRAC_PI_2;
+        c.sensor_pose.position = [1.0, 0.25, 0.2];
+        c.sensor_pose.rpy = [0.0, 0.0, std::f64::consts::FRAC_PI_2];
+        let mut out = Vec::new();
+        ViewerConverter::default().convert(s::POINT_CLOUD, &buf(&*c), &mut out);
+        assert_eq!(out.len(), 2);
+        let tf = fg::FrameTransforms::decode(out[0].data.as_slice()).unwrap();
+        let rel = tf.transforms[1].translation.unwrap();
+        assert!(
+            (rel.x - 0.25).abs() < 1e-12 && rel.y.abs() < 1e-12,
+            "{rel:?}"
+        );
+        let q = tf.transforms[1].rotation.unwrap();
+        assert!((q.w - 1.0).abs() < 1e-12);
+        let pc = fg::PointCloud::decode(out[1].data.as_slice()).unwrap();
+        assert_eq!(pc.data.len(), 24);
+        assert_eq!(pc.frame_id, "sensor");
+    }
+
+    #[test]
+    fn scene_and_logs_are_emitted_on_change_only() {
+        let mut w = zeroed_box::<WorldTruth>();
+        w.len = 2;
+        w.bodies[0].is_static = 1;
+        w.bodies[0].size = [1.0, 2.0, 3.0];
+        w.bodies[1].pose.x = 2.0;
+        w.bodies[1].size = [0.88, 0.8, 1.0];
+        let mut conv = ViewerConverter::default();
+        let mut out = Vec::new();
+        conv.convert(s::WORLD_TRUTH, &buf(&*w), &mut out);
+        conv.convert(s::WORLD_TRUTH, &buf(&*w), &mut out);
+        assert_eq!(out.len(), 1);
+        let su = fg::SceneUpdate::decode(out[0].data.as_slice()).unwrap();
+        assert_eq!(su.entities[0].cubes.len(), 1);
+        assert_eq!(su.entities[1].cubes.len(), 1);
+        w.bodies[1].pose.x = 2.5;
+        conv.convert(s::WORLD_TRUTH, &buf(&*w), &mut out);
+        assert_eq!(out.len(), 2);
+
+        let mut st = zeroed_box::<MissionStatus>();
+        write_name(&mut st.text, "planning segment 1");
+        out.clear();
+        conv.convert(s::MISSION_STATUS, &buf(&*st), &mut out);
+        conv.convert(s::MISSION_STATUS, &buf(&*st), &mut out);
+        assert_eq!(out.len(), 1);
+        let l = fg::Log::decode(out[0].data.as_slice()).unwrap();
+        assert!(l.message.contains("planning segment 1"), "{}", l.message);
+    }
+
+    #[test]
+    fn driven_path_grows_and_is_published_periodically() {
+        let mut conv = ViewerConverter::new(ViewerOptions {
+            cloud_every: 1,
+            driven_every: 2,
+        });
+        let mut r = zeroed_box::<RobotState>();
+        let mut out = Vec::new();
+        for i in 0..4 {
+            r.pose.x = f64::from(i) * 0.1;
+            conv.convert(s::ROBOT_STATE, &buf(&*r), &mut out);
+        }
+        let paths: Vec<_> = out
+            .iter()
+            .filter(|m| m.topic == ViewerTopic::DrivenPath)
+            .collect();
+        assert_eq!(paths.len(), 2);
+        let last = fg::PosesInFrame::decode(paths[1].data.as_slice()).unwrap();
+        assert_eq!(last.poses.len(), 4);
+    }
+
+    #[test]
+    fn every_topic_has_a_foxglove_protobuf_schema() {
+        for t in ViewerTopic::ALL {
+            let s = t.schema().unwrap();
+            assert!(s.name.starts_with("foxglove."), "{}", s.name);
+            assert_eq!(s.encoding, "protobuf");
+            assert!(!s.data.is_empty());
+        }
+    }
+}
