@@ -78,27 +78,8 @@ impl AlignedBuf {
     }
 }
 
-/// The bytes of a message as they lie in shared memory.
-pub fn message_bytes<M: Message>(m: &M) -> &[u8] {
-    // SAFETY: `M` is `#[repr(C)]` plain data (`ZeroedValid`), `m` is a valid reference
-    // to `size_of::<M>()` bytes; padding is explicit in every message, so no byte is
-    // uninitialised.
-    unsafe { std::slice::from_raw_parts(m as *const M as *const u8, std::mem::size_of::<M>()) }
-}
-
-/// A heap-allocated all-zero message (large messages would overflow the stack).
-pub fn zeroed_box<M: Message>() -> Box<M> {
-    let layout = std::alloc::Layout::new::<M>();
-    // SAFETY: every message is larger than zero bytes; `M: ZeroedValid` makes all-zero
-    // bytes a valid `M`, and the allocation has `M`'s layout so `Box` may free it.
-    unsafe {
-        let ptr = std::alloc::alloc_zeroed(layout) as *mut M;
-        if ptr.is_null() {
-            std::alloc::handle_alloc_error(layout);
-        }
-        Box::from_raw(ptr)
-    }
-}
+pub use aisle_bus::message_bytes;
+pub use aisle_messages::zeroed_box;
 
 #[cfg(test)]
 mod tests {

@@ -129,7 +129,7 @@ fn drain_from(
     out: &mut Vec<Vec<u8>>,
 ) -> Result<(), BusError> {
     let writer = writer as u32;
-    while source.next_bytes(&mut |bytes| {
+    while source.receive_raw(&mut |bytes| {
         if u32_at(bytes, SOURCE_AT) == writer {
             out.push(bytes.to_vec());
         }
@@ -327,7 +327,7 @@ fn publish(
     data: &[u8],
 ) -> Result<(), ReplayError> {
     if let Some(sink) = ports.sinks.get_mut(topic) {
-        sink.publish(data)?;
+        sink.publish_raw(data)?;
         *summary.published.entry(topic.to_string()).or_default() += 1;
     }
     Ok(())

@@ -266,7 +266,7 @@ pub fn replay(opts: &ReplayOptions) -> Result<ReplaySummary, ReplayError> {
             latched_done = true;
             for (li, data) in std::mem::take(&mut latched) {
                 if let Some(sink) = sinks[li].as_mut() {
-                    sink.publish(&data)?;
+                    sink.publish_raw(&data)?;
                     summary.latched += 1;
                     *summary
                         .published
@@ -287,7 +287,7 @@ pub fn replay(opts: &ReplayOptions) -> Result<ReplaySummary, ReplayError> {
                 .max(clock::monotonic_ns().saturating_sub(due));
         }
         if let Some(sink) = sinks[i].as_mut() {
-            sink.publish(&m.data)?;
+            sink.publish_raw(&m.data)?;
             *summary
                 .published
                 .entry(m.channel.topic.clone())

@@ -134,7 +134,8 @@ fn drain_sources(
         loop {
             let log_time = clock::monotonic_ns();
             let mut job = None;
-            let got = src.next_bytes(&mut |bytes| job = taker.take(i, log_time, bytes, summary))?;
+            let got =
+                src.receive_raw(&mut |bytes| job = taker.take(i, log_time, bytes, summary))?;
             if !got {
                 break;
             }
