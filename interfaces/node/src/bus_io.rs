@@ -39,6 +39,9 @@ struct Opener<'a, 'b> {
     bus: &'b Bus,
     decl: &'a NodeDecl,
     io: &'a mut BusIo<'b>,
+    /// The trigger is left out of the first pass and opened alone, last.
+    trigger: &'a str,
+    trigger_pass: bool,
     error: Option<NodeError>,
 }
 
@@ -50,7 +53,7 @@ fn refresh_port<T: Message>(port: &dyn Any) {
 
 impl TopicVisitor for Opener<'_, '_> {
     fn visit<T: Message>(&mut self, topic: Topic<T>) {
-        if self.error.is_some() {
+        if self.error.is_some() || (topic.name == self.trigger) != self.trigger_pass {
             return;
         }
         let listed = |l: &[String]| l.iter().any(|t| t == topic.name);
@@ -78,8 +81,11 @@ impl TopicVisitor for Opener<'_, '_> {
 }
 
 impl<'b> BusIo<'b> {
-    /// Opens every port `decl` lists.
-    pub fn open(bus: &'b Bus, decl: &NodeDecl) -> Result<BusIo<'b>, NodeError> {
+    /// Opens every port `decl` lists, the subscriber of `trigger` last: a restarted
+    /// stage receives the history of its trigger only once every other input's
+    /// subscriber exists, so the inputs of the tick it resumes at have arrived too
+    /// (history reaches the ports a publisher sees when it next updates connections).
+    pub fn open(bus: &'b Bus, decl: &NodeDecl, trigger: &str) -> Result<BusIo<'b>, NodeError> {
         let mut io = BusIo {
             bus,
             node: decl.name.clone(),
@@ -92,9 +98,13 @@ impl<'b> BusIo<'b> {
             bus,
             decl,
             io: &mut io,
+            trigger,
+            trigger_pass: false,
             error: None,
         };
         topics::for_each(&mut opener);
+        opener.trigger_pass = true;
+        topics::visit(trigger, &mut opener);
         match opener.error {
             Some(e) => Err(e),
             None => Ok(io),

@@ -30,7 +30,7 @@ pub fn run<S: Stage>(stage: &mut S, args: &NodeArgs) -> Result<(), NodeError> {
         seed: info.seed,
         restarted: args.restarted,
     };
-    let io = BusIo::open(&bus, &decl)?;
+    let io = BusIo::open(&bus, &decl, S::TRIGGER.name)?;
     let mut acks = (decl.acknowledges != Acknowledges::None)
         .then(|| bus.publisher(topics::TICK_DONE))
         .transpose()?;
