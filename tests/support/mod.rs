@@ -221,3 +221,24 @@ pub fn assert_group_gone(pid: u32, nodes: &[(String, u32)], run_dir: &Path) {
         run_dir_leftovers(run_dir)
     );
 }
+
+/// FNV-1a 64 over the little-endian bytes of every value of `path`, in order.
+pub fn path_digest(path: &[[f64; 4]]) -> String {
+    let mut h = 0xcbf2_9ce4_8422_2325_u64;
+    for b in path.iter().flatten().flat_map(|v| v.to_le_bytes()) {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    format!("{h:016x}")
+}
+
+/// The seed mission's driven path as pinned in `tests/data/seed_baseline.toml`: its
+/// digest ([`path_digest`]) and its number of poses.
+pub fn seed_baseline() -> (String, usize) {
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/seed_baseline.toml");
+    let v: toml::Value = toml::from_str(&std::fs::read_to_string(file).unwrap()).unwrap();
+    (
+        v["driven_path_fnv1a"].as_str().unwrap().to_string(),
+        v["driven_path_poses"].as_integer().unwrap() as usize,
+    )
+}

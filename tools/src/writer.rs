@@ -26,7 +26,7 @@ pub const TRIMMED_KEY: &str = "trailing_zeros_trimmed";
 
 #[derive(Debug, thiserror::Error)]
 pub enum WriteError {
-    #[error("mcap: {0}")]
+    #[error("mcap: {}", mcap_detail(.0))]
     Mcap(#[from] mcap::McapError),
     #[error("`{service}` is not a recorded service")]
     UnknownService { service: String },
@@ -39,6 +39,15 @@ pub enum WriteError {
     },
     #[error("no Foxglove schema for viewer topic {0}")]
     NoSchema(&'static str),
+}
+
+/// The MCAP error with its OS cause: the crate's own text for I/O errors drops it
+/// ("I/O error from writing"), and "no space left on device" is what a user needs.
+fn mcap_detail(e: &mcap::McapError) -> String {
+    match e {
+        mcap::McapError::Io(io) => format!("{e}: {io}"),
+        other => other.to_string(),
+    }
 }
 
 /// Compression of the chunks. Measured on a seed-sized tick (benches/record.rs, raw

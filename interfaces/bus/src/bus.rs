@@ -152,7 +152,9 @@ pub struct HeartbeatSender {
 }
 
 impl HeartbeatSender {
-    pub const PERIOD: Duration = Duration::from_millis(200);
+    /// Every wait ticks the sender at least every `WAIT_SLICE` (25 ms), so a waiting
+    /// process beats every 50-75 ms; realtime heartbeat timeouts are a few periods.
+    pub const PERIOD: Duration = Duration::from_millis(50);
 
     pub fn send(&mut self, state: NodeState, text: &str) -> Result<(), BusError> {
         self.last_ns = clock::monotonic_ns();

@@ -30,7 +30,7 @@ impl Stamp {
 }
 
 /// Longest single sleep inside a wait, so signals and heartbeats are served promptly.
-pub(crate) const WAIT_SLICE: Duration = Duration::from_millis(50);
+pub(crate) const WAIT_SLICE: Duration = Duration::from_millis(25);
 
 pub struct Publisher<M: Message> {
     service: &'static str,

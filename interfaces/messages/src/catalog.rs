@@ -3,7 +3,7 @@
 use iceoryx2::prelude::ZeroCopySend;
 
 use crate::common::{
-    Header, PathPoseMsg, Pose2Msg, Pose3Msg, RectMsg, TimedCommandMsg, TimedPoseMsg,
+    Header, NodeKind, PathPoseMsg, Pose2Msg, Pose3Msg, RectMsg, TimedCommandMsg, TimedPoseMsg,
 };
 use crate::{FieldLayout, message};
 
@@ -251,7 +251,8 @@ message!(
         len: u32,
         poses_len: u32,
         /// 0 valid, 1 collision, 2 margin, 3 turning radius, 4 time not increasing, 5 off
-        /// path (MATLAB's codes); 6 an acceleration over its limit (aisle's; still driven).
+        /// path (MATLAB's codes); 6 an acceleration over its limit (aisle's; still driven);
+        /// 7 stopped because an input (local map, robot state) was too old (aisle's).
         exit_flag: u32,
         last_feasible_index: i32,
         reached_goal: u32,
@@ -290,7 +291,7 @@ message!(
     /// The simulator's whole state at the start of tick `next_tick`, published with
     /// history 1 before that tick's `RobotState`, so a restarted simulator resumes
     /// bit for bit: every float is copied, none recomputed.
-    SimState = "aisle.SimState.v1" size 14096 {
+    SimState = "aisle.SimState.v2" size 14112 {
         header: Header,
         next_tick: u64,
         time_ns: u64,
@@ -311,9 +312,14 @@ message!(
         /// The last trajectory applied: its sequence number and tick.
         last_trajectory_seq: u64,
         last_trajectory_tick: u64,
+        /// The tick stamped on the last `Stop` applied (u64::MAX: none): trajectories of
+        /// that tick or older were computed before it and are not driven.
+        last_stop_tick: u64,
         bodies_len: u32,
         timeline_len: u32,
         timeline_start_ns: u64,
+        /// When the timeline stops being in force (its successor overdue); u64::MAX: never.
+        timeline_expiry_ns: u64,
         body_poses: [Pose2Msg; MAX_BODIES],
         in_contact: [u8; MAX_BODIES],
         timeline: [TimedTwistMsg; MAX_COMMANDS],
@@ -376,6 +382,23 @@ message!(
     }
 );
 
+message!(
+    /// Who is in the group, from the supervisor (history 1): a lockstep tick waits only
+    /// for the acknowledgements of members. Published before the first tick and again
+    /// when a member leaves for good (a recorder that died or failed).
+    GroupMembers = "aisle.GroupMembers.v1" size 56 {
+        header: Header,
+        /// Bit `1 << (NodeKind as u32)` set: that node is in the group.
+        members: u64,
+    }
+);
+
+impl GroupMembers {
+    pub fn contains(&self, kind: NodeKind) -> bool {
+        self.members & (1 << kind as u32) != 0
+    }
+}
+
 pub(crate) fn layouts() -> Vec<(&'static str, usize, usize, &'static [FieldLayout])> {
     macro_rules! l {
         ($($t:ty),*) => { vec![$((<$t>::TYPE_NAME, core::mem::size_of::<$t>(), core::mem::align_of::<$t>(), <$t>::FIELDS)),*] };
@@ -406,6 +429,7 @@ pub(crate) fn layouts() -> Vec<(&'static str, usize, usize, &'static [FieldLayou
         SimCommand,
         Heartbeat,
         MissionStatus,
-        InstanceInfo
+        InstanceInfo,
+        GroupMembers
     )
 }

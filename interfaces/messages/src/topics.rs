@@ -183,6 +183,8 @@ topics! {
     /// The controller's resumable state.
     CONTROLLER_BAND: ControllerBand = "aisle/controller/band", RETAINED;
     MISSION_STATUS: MissionStatus = "aisle/mission/status", EXCHANGE;
+    /// Who is in the group: whose acknowledgements a lockstep tick waits for.
+    GROUP: GroupMembers = "aisle/group", RETAINED;
 }
 
 /// The untyped facts of the topic called `name`.

@@ -16,7 +16,7 @@ use std::cell::{Cell, RefCell};
 use std::time::Duration;
 
 /// How long one sleep of a wait lasts at most, so heartbeats keep going.
-const SLICE: Duration = Duration::from_millis(50);
+const SLICE: Duration = Duration::from_millis(25);
 
 struct OutPort {
     topic: &'static str,
@@ -214,6 +214,12 @@ impl Io for BusIo<'_> {
     ) -> Result<(), NodeError> {
         self.output(topic)?.borrow_mut().publish(stamp, fill)?;
         Ok(())
+    }
+
+    fn keep_alive(&self) {
+        if let Ok(mut hb) = self.heartbeat.try_borrow_mut() {
+            let _ = hb.tick(self.state.get());
+        }
     }
 
     fn retained<T: Message>(

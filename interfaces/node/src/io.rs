@@ -44,6 +44,11 @@ pub trait Io {
         fill: impl FnOnce(&mut T),
     ) -> Result<(), NodeError>;
 
+    /// Says the node is alive during a long computation (a plan), so the supervisor
+    /// does not take it for a hung one. Call it every few milliseconds of work; it is
+    /// cheap and rate-limited. Waits need no call: they beat by themselves.
+    fn keep_alive(&self);
+
     /// The newest retained sample of one of this node's own outputs (kept by the
     /// supervisor across a crash), waiting up to `timeout`: what a restarted stage
     /// resumes from.

@@ -6,7 +6,7 @@ use crate::Io;
 use aisle_bus::{NodeError, Stamp};
 use aisle_messages::{Message, Topic, zeroed_box};
 use std::any::Any;
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 use std::collections::{HashMap, VecDeque};
 use std::time::Duration;
 
@@ -15,6 +15,7 @@ pub struct MemIo {
     inputs: RefCell<HashMap<&'static str, VecDeque<Box<dyn Any>>>>,
     outputs: RefCell<HashMap<&'static str, Vec<Box<dyn Any>>>>,
     retained: RefCell<HashMap<&'static str, Box<dyn Any>>>,
+    keep_alives: Cell<u64>,
 }
 
 impl MemIo {
@@ -38,6 +39,11 @@ impl MemIo {
         let mut m = zeroed_box::<T>();
         fill(&mut m);
         self.retained.borrow_mut().insert(topic.name, m);
+    }
+
+    /// How many times the stage said it is alive ([`Io::keep_alive`]).
+    pub fn keep_alives(&self) -> u64 {
+        self.keep_alives.get()
     }
 
     /// How many samples of `topic` were published so far.
@@ -114,6 +120,10 @@ impl Io for MemIo {
             .or_default()
             .push(m);
         Ok(())
+    }
+
+    fn keep_alive(&self) {
+        self.keep_alives.set(self.keep_alives.get() + 1);
     }
 
     fn retained<T: Message>(

@@ -60,6 +60,11 @@ impl Awaited {
         self.nodes.is_empty()
     }
 
+    /// Stops waiting for the nodes `keep` refuses (members that left the group).
+    pub fn keep_only(&mut self, keep: impl Fn(NodeKind) -> bool) {
+        self.nodes.retain(|n| keep(*n));
+    }
+
     /// The nodes still awaited, for messages.
     pub fn pending(&self) -> &[NodeKind] {
         &self.nodes
@@ -72,13 +77,14 @@ impl Awaited {
 
     /// Waits on `acks` until every awaited node answered. `seen` sees every
     /// acknowledgement that arrives (latency books); `on_slice` runs between sleeps of at
-    /// most `slice` and ends the wait with its error (a deadline, a dead node).
+    /// most `slice` and ends the wait with its error (a deadline, a dead node); it may
+    /// also stop waiting for nodes that left ([`Awaited::keep_only`]).
     pub fn wait<E: From<BusError>>(
         &mut self,
         acks: &Subscriber<TickDone>,
         slice: Duration,
         mut seen: impl FnMut(&TickDone),
-        mut on_slice: impl FnMut(&Awaited) -> Result<(), E>,
+        mut on_slice: impl FnMut(&mut Awaited) -> Result<(), E>,
     ) -> Result<(), E> {
         while !self.is_complete() {
             let mut slice_error = None;
@@ -125,5 +131,12 @@ mod tests {
         assert_eq!(a.pending_names(), "mapper");
         assert!(a.take(&done(7, NodeKind::Mapper)));
         assert!(a.is_complete());
+        a.expect(8, [NodeKind::Lidar, NodeKind::Recorder]);
+        a.keep_only(|n| n != NodeKind::Recorder);
+        assert_eq!(
+            a.pending_names(),
+            "lidar",
+            "a member that left is not awaited"
+        );
     }
 }

@@ -136,12 +136,17 @@ pub struct WatchdogConfig {
     /// stop no later than 0.3 s after the timeline runs out (Clearpath's own command
     /// timeout is 0.25 s).
     pub hold_last_command: f64,
+    /// Seconds a trajectory may be late before the robot stops, whatever its timeline
+    /// still holds: a timeline is in force until the next one is due (one controller
+    /// period after its tick) plus this. A hung controller cannot drive the robot on.
+    pub late_trajectory: f64,
 }
 
 impl Default for WatchdogConfig {
     fn default() -> Self {
         Self {
             hold_last_command: 0.3,
+            late_trajectory: 0.3,
         }
     }
 }
@@ -217,6 +222,7 @@ impl Validate for RobotConfig {
             "watchdog.hold_last_command",
             self.watchdog.hold_last_command,
         )?;
+        positive("watchdog.late_trajectory", self.watchdog.late_trajectory)?;
         finite("start.pose", &self.start.pose)?;
         Ok(())
     }
@@ -243,6 +249,11 @@ impl RobotConfig {
     /// The watchdog hold in integer nanoseconds (rounded).
     pub fn watchdog_hold_ns(&self) -> u64 {
         (self.watchdog.hold_last_command * 1e9).round() as u64
+    }
+
+    /// How late a trajectory may be, in integer nanoseconds (rounded).
+    pub fn late_trajectory_ns(&self) -> u64 {
+        (self.watchdog.late_trajectory * 1e9).round() as u64
     }
 }
 

@@ -151,9 +151,11 @@ impl Stage for PlannerStage {
         let view = layer
             .view()
             .map_err(|e| NodeError::Protocol(format!("global_planner: map: {e}")))?;
-        let result = self
-            .planner
-            .plan_with_stop(&request, &view, &mut || clock::monotonic_ns() > deadline);
+        let result = self.planner.plan_with_stop(&request, &view, &mut || {
+            // Asked every few hundred expansions: a long search is not a hang.
+            io.keep_alive();
+            clock::monotonic_ns() > deadline
+        });
         let solve_ns = clock::monotonic_ns() - started;
         io.publish(topics::PLAN_RESPONSE, Stamp::of(&req.header), |m| {
             fill_response(m, &req, &result, solve_ns)

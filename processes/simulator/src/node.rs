@@ -25,8 +25,9 @@ use aisle_bus::{
 use aisle_config::scene::Scene;
 use aisle_geometry::Pose2;
 use aisle_messages::{
-    MAX_BODIES, NodeKind, NodeState, RobotState, STAGE_CONTROLLER, SimCommand, SimCommandKind,
-    SimState, StageStatus, Tick, TickDone, TickMode, Trajectory, WorldTruth, topics, write_name,
+    GroupMembers, MAX_BODIES, NodeKind, NodeState, RobotState, STAGE_CONTROLLER, SimCommand,
+    SimCommandKind, SimState, StageStatus, Tick, TickDone, TickMode, Trajectory, WorldTruth,
+    topics, write_name,
 };
 use aisle_node::Graph;
 use aisle_node::tick::Awaited;
@@ -34,6 +35,8 @@ use std::time::Duration;
 
 /// How long a lockstep tick may wait for its stages before the simulator gives up.
 const STAGE_TIMEOUT: Duration = Duration::from_secs(60);
+/// Longest sleep of a wait, so heartbeats keep their period.
+const WAIT_SLICE: Duration = Duration::from_millis(25);
 /// How long a restarted simulator waits for its published state.
 const RESUME_TIMEOUT: Duration = Duration::from_secs(5);
 
@@ -46,6 +49,7 @@ struct Ports {
     done_in: Subscriber<TickDone>,
     commands: Subscriber<SimCommand>,
     trajectory: Subscriber<Trajectory>,
+    group: Subscriber<GroupMembers>,
 }
 
 impl Ports {
@@ -59,18 +63,61 @@ impl Ports {
 }
 
 /// What the simulator has consumed so far (part of its resumable state).
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Copy)]
 struct Applied {
     command_id: u64,
     trajectory: (u64, u64),
+    /// The tick stamped on the last `Stop` (u64::MAX: none): a trajectory of that tick
+    /// or older was computed before the stop and must not start the robot again.
+    stop_tick: u64,
 }
 
-/// The world of `args.config_dir` with the robot at the mission's start.
-fn load_world(args: &NodeArgs) -> Result<World, NodeError> {
+impl Default for Applied {
+    fn default() -> Self {
+        Applied {
+            command_id: 0,
+            trajectory: (0, 0),
+            stop_tick: u64::MAX,
+        }
+    }
+}
+
+impl Applied {
+    fn drives(&self, traj: &Trajectory) -> bool {
+        self.stop_tick == u64::MAX || traj.header.tick > self.stop_tick
+    }
+}
+
+/// How long a trajectory stays in force: until its successor is due (one controller
+/// period after its tick) plus the lateness `robot.toml` allows.
+#[derive(Debug, Clone, Copy)]
+struct TrajectoryLife {
+    period_ns: u64,
+    late_ns: u64,
+}
+
+impl TrajectoryLife {
+    fn expiry(&self, traj: &Trajectory) -> u64 {
+        traj.header
+            .stamp_ns
+            .saturating_add(self.period_ns)
+            .saturating_add(self.late_ns)
+    }
+}
+
+/// The world of `args.config_dir` with the robot at the mission's start, and how long
+/// a trajectory lives.
+fn load_world(args: &NodeArgs) -> Result<(World, TrajectoryLife), NodeError> {
     let robot_toml = args.config_dir.join("robot.toml");
     let scene_path = args.config_dir.join("warehouse.toml");
     let (cfg, model) =
         aisle_robot::load_robot(&robot_toml).map_err(|e| NodeError::setup("simulator", e))?;
+    let life = TrajectoryLife {
+        period_ns: args
+            .dt_ns
+            .saturating_mul(args.controller_every.max(1) as u64),
+        late_ns: cfg.late_trajectory_ns(),
+    };
     let scene = Scene::load(&scene_path).map_err(|e| NodeError::setup("simulator", e))?;
     let start = Pose2::new(args.start[0], args.start[1], args.start[2]);
     let world = World::new_at(&scene, &model, &cfg, start)
@@ -84,7 +131,7 @@ fn load_world(args: &NodeArgs) -> Result<World, NodeError> {
             ),
         ));
     }
-    Ok(world)
+    Ok((world, life))
 }
 
 fn open_ports(bus: &Bus) -> Result<Ports, NodeError> {
@@ -97,6 +144,7 @@ fn open_ports(bus: &Bus) -> Result<Ports, NodeError> {
         done_in: bus.subscriber(topics::TICK_DONE)?,
         commands: bus.subscriber(topics::SIM_COMMAND)?,
         trajectory: bus.subscriber(topics::TRAJECTORY)?,
+        group: bus.subscriber(topics::GROUP)?,
     })
 }
 
@@ -124,6 +172,7 @@ fn resume(bus: &Bus, world: &mut World) -> Result<(u64, Applied), NodeError> {
     let applied = Applied {
         command_id: newest.last_command_id,
         trajectory: (newest.last_trajectory_tick, newest.last_trajectory_seq),
+        stop_tick: newest.last_stop_tick,
     };
     Ok((k, applied))
 }
@@ -132,7 +181,7 @@ fn resume(bus: &Bus, world: &mut World) -> Result<(u64, Applied), NodeError> {
 fn wait_for_start(ports: &Ports, heartbeat: &mut HeartbeatSender) -> Result<(), NodeError> {
     loop {
         let (outcome, _) = ports.commands.wait_for(
-            Duration::from_millis(200),
+            WAIT_SLICE,
             |c| c.kind == SimCommandKind::Start as u32,
             || {
                 let _ = heartbeat.tick(NodeState::Ready);
@@ -144,8 +193,9 @@ fn wait_for_start(ports: &Ports, heartbeat: &mut HeartbeatSender) -> Result<(), 
     }
 }
 
-/// Sleeps until the wall clock reaches `due` (realtime release of the next tick).
-fn sleep_until(due: u64) -> Result<(), NodeError> {
+/// Sleeps until the wall clock reaches `due` (realtime release of the next tick),
+/// beating meanwhile.
+fn sleep_until(due: u64, heartbeat: &mut HeartbeatSender) -> Result<(), NodeError> {
     loop {
         let now = clock::monotonic_ns();
         if now >= due {
@@ -154,35 +204,46 @@ fn sleep_until(due: u64) -> Result<(), NodeError> {
         if signals::stop_requested() {
             return Err(aisle_bus::BusError::StopRequested.into());
         }
+        heartbeat.tick(NodeState::Running)?;
         std::thread::sleep(Duration::from_nanos((due - now).min(20_000_000)));
     }
 }
 
-/// Applies the supervisor's new commands and the newest controller trajectory.
-fn apply_inputs(ports: &Ports, world: &mut World, applied: &mut Applied) -> Result<(), NodeError> {
+/// Applies the supervisor's new commands and the newest controller trajectory, which
+/// stays in force until its successor is overdue ([`TrajectoryLife`]).
+fn apply_inputs(
+    ports: &Ports,
+    world: &mut World,
+    applied: &mut Applied,
+    life: TrajectoryLife,
+) -> Result<(), NodeError> {
     while let Some(cmd) = ports.commands.receive()? {
         // History replays commands to a restarted simulator: apply each once.
         if cmd.command_id > applied.command_id {
             applied.command_id = cmd.command_id;
+            if cmd.kind == SimCommandKind::Stop as u32 {
+                applied.stop_tick = cmd.header.tick;
+            }
             apply_command(world, &cmd);
         }
     }
     if let Some(traj) = ports.trajectory.latest()? {
         let id = (traj.header.tick, traj.header.seq);
-        if id != applied.trajectory {
+        if id != applied.trajectory && applied.drives(&traj) {
             applied.trajectory = id;
             let n = (traj.len as usize).min(traj.commands.len());
             if n == 0 {
                 world.stop();
             } else {
                 let cmds = traj.commands[..n].iter().map(|c| (c.t, c.v, c.w));
-                if let Err(e) = world.set_timeline_iter(traj.start_ns, cmds) {
-                    // A malformed timeline is refused; the watchdog stops the robot
-                    // when the previous one runs out.
-                    tracing::warn!(
+                match world.set_timeline_iter(traj.start_ns, cmds) {
+                    Ok(()) => world.set_timeline_expiry(life.expiry(&traj)),
+                    // A malformed timeline is refused; the previous one expires as it
+                    // would have.
+                    Err(e) => tracing::warn!(
                         "simulator: trajectory of tick {} refused: {e}",
                         traj.header.tick
-                    );
+                    ),
                 }
             }
         }
@@ -210,9 +271,13 @@ fn step(world: &mut World, dt_ns: u64) {
 }
 
 pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
-    let mut world = load_world(args)?;
+    let (mut world, life) = load_world(args)?;
     let graph = Graph::load_dir(&args.config_dir).map_err(|e| NodeError::setup("simulator", e))?;
     let mut awaited = Awaited::new();
+    let mut members = Members {
+        newest: None,
+        recorded: args.recorded,
+    };
     let (bus, info) = Bus::join(&args.instance, NodeKind::Simulator, NodeArgs::JOIN_TIMEOUT)?;
     let mode = TickMode::from_u32(info.mode).unwrap_or(TickMode::Lockstep);
     let mut ports = open_ports(&bus)?;
@@ -262,13 +327,15 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
                     &graph,
                     &mut awaited,
                     tick,
-                    args.recorded,
+                    &mut members,
                 )?
             }
-            TickMode::Realtime => sleep_until(wall_start + (k + 1 - first_tick) * dt_ns)?,
+            TickMode::Realtime => {
+                sleep_until(wall_start + (k + 1 - first_tick) * dt_ns, &mut heartbeat)?
+            }
         }
         let timer = StageTimer::start();
-        apply_inputs(&ports, &mut world, &mut applied)?;
+        apply_inputs(&ports, &mut world, &mut applied, life)?;
         step(&mut world, dt_ns);
         let compute_ns = timer.elapsed_ns();
         ports.done_out.publish(stamp, |d| {
@@ -333,6 +400,7 @@ fn publish_sim_state(
         m.last_command_id = applied.command_id;
         m.last_trajectory_tick = applied.trajectory.0;
         m.last_trajectory_seq = applied.trajectory.1;
+        m.last_stop_tick = applied.stop_tick;
         m.bodies_len = snap.body_poses.len() as u32;
         for (dst, (p, c)) in m
             .body_poses
@@ -346,6 +414,7 @@ fn publish_sim_state(
         let entries = snap.timeline.commands();
         m.timeline_len = entries.len() as u32;
         m.timeline_start_ns = snap.timeline.start_ns();
+        m.timeline_expiry_ns = snap.timeline.expiry_ns();
         for (dst, e) in m.timeline.iter_mut().zip(entries) {
             dst.offset_ns = e.offset_ns;
             dst.v = e.twist.v;
@@ -366,8 +435,9 @@ fn restore(world: &mut World, m: &SimState) -> Result<(), NodeError> {
             twist: Twist { v: e.v, w: e.w },
         })
         .collect();
-    let timeline = CommandTimeline::from_entries(m.timeline_start_ns, &entries)
+    let mut timeline = CommandTimeline::from_entries(m.timeline_start_ns, &entries)
         .map_err(|e| NodeError::Protocol(format!("simulator: published timeline: {e}")))?;
+    timeline.set_expiry(m.timeline_expiry_ns);
     let snap = WorldSnapshot {
         time_ns: m.time_ns,
         robot: WorldRobot {
@@ -428,28 +498,58 @@ fn publish_state(ports: &mut Ports, world: &World, stamp: Stamp) -> Result<(), N
     Ok(())
 }
 
-/// Waits until every node the graph says acknowledges tick `k` did (the recorder only
-/// when one runs).
+/// Whose acknowledgements count: the supervisor's newest `GroupMembers`, or before the
+/// first one, the launch's (the recorder only when `--record` attached one).
+struct Members {
+    newest: Option<u64>,
+    recorded: bool,
+}
+
+impl Members {
+    /// Takes a newer membership, if one arrived; true when it changed.
+    fn refresh(&mut self, group: &Subscriber<GroupMembers>) -> Result<bool, NodeError> {
+        let Some(g) = group.latest()? else {
+            return Ok(false);
+        };
+        let changed = self.newest != Some(g.members);
+        if changed && self.newest.is_some() {
+            tracing::warn!("simulator: group members now {:#x}", g.members);
+        }
+        self.newest = Some(g.members);
+        Ok(changed)
+    }
+
+    fn contains(&self, kind: NodeKind) -> bool {
+        match self.newest {
+            Some(m) => m & (1 << kind as u32) != 0,
+            None => kind != NodeKind::Recorder || self.recorded,
+        }
+    }
+}
+
+/// Waits until every node the graph says acknowledges tick `k` did, among the
+/// group's members (a recorder that died or failed leaves, and is no longer waited for).
 fn wait_stages(
     ports: &Ports,
     heartbeat: &mut HeartbeatSender,
     graph: &Graph,
     awaited: &mut Awaited,
     (k, stages): (u64, u32),
-    recorded: bool,
+    members: &mut Members,
 ) -> Result<(), NodeError> {
-    awaited.expect(
-        k,
-        graph.acknowledgers(stages, |n| n != NodeKind::Recorder || recorded),
-    );
+    members.refresh(&ports.group)?;
+    awaited.expect(k, graph.acknowledgers(stages, |n| members.contains(n)));
     let started = std::time::Instant::now();
     awaited.wait(
         &ports.done_in,
-        Duration::from_millis(200),
+        WAIT_SLICE,
         |_| {},
         |a| {
             let _ = heartbeat.tick(NodeState::Running);
             ports.refresh();
+            if members.refresh(&ports.group)? {
+                a.keep_only(|n| members.contains(n));
+            }
             if started.elapsed() > STAGE_TIMEOUT {
                 return Err(NodeError::Protocol(format!(
                     "tick {k}: no acknowledgement from {} within {} s",

@@ -7,7 +7,9 @@
 //!   `start + t <= T` (entries with equal stamps: the later one wins);
 //! - before the first entry, no command is in force;
 //! - the last entry stays in force for `hold` after its stamp, then no command is in
-//!   force (the watchdog): the robot stops until a new timeline arrives.
+//!   force (the watchdog): the robot stops until a new timeline arrives;
+//! - nothing is in force from the timeline's expiry on (when its successor is overdue,
+//!   [`CommandTimeline::set_expiry`]), however many entries it still holds.
 //!
 //! Times are integer nanoseconds (u64) so boundaries compare exactly; the seconds
 //! given by the controller are rounded to the nearest nanosecond once, on entry.
@@ -57,6 +59,8 @@ pub struct Segment {
 #[derive(Debug, Clone, PartialEq)]
 pub struct CommandTimeline {
     start_ns: u64,
+    /// First instant at which nothing of this timeline is in force any more.
+    expiry_ns: u64,
     len: usize,
     entries: [TimedCommand; MAX_COMMANDS],
 }
@@ -65,6 +69,7 @@ impl Default for CommandTimeline {
     fn default() -> Self {
         Self {
             start_ns: 0,
+            expiry_ns: u64::MAX,
             len: 0,
             entries: [TimedCommand::default(); MAX_COMMANDS],
         }
@@ -120,6 +125,7 @@ impl CommandTimeline {
             len = index + 1;
         }
         self.start_ns = start_ns;
+        self.expiry_ns = u64::MAX;
         self.len = len;
         for (e, (t, v, w)) in self.entries.iter_mut().zip(commands) {
             *e = TimedCommand {
@@ -158,6 +164,17 @@ impl CommandTimeline {
         Ok(out)
     }
 
+    /// Ends the timeline at `expiry_ns` (absolute): from then on no command is in force.
+    /// Setting a new timeline clears the expiry.
+    pub fn set_expiry(&mut self, expiry_ns: u64) {
+        self.expiry_ns = expiry_ns;
+    }
+
+    /// See [`CommandTimeline::set_expiry`]; `u64::MAX` for none.
+    pub fn expiry_ns(&self) -> u64 {
+        self.expiry_ns
+    }
+
     /// Drops every command: the robot stops at once.
     pub fn clear(&mut self) {
         self.len = 0;
@@ -184,8 +201,22 @@ impl CommandTimeline {
     }
 
     /// The command in force at `t_ns` and when that changes, given the watchdog hold
-    /// of the last entry.
+    /// of the last entry and the timeline's expiry.
     pub fn segment_at(&self, t_ns: u64, hold_ns: u64) -> Segment {
+        if t_ns >= self.expiry_ns {
+            return Segment {
+                command: None,
+                until_ns: u64::MAX,
+            };
+        }
+        let mut seg = self.segment_by_entries(t_ns, hold_ns);
+        if seg.command.is_some() {
+            seg.until_ns = seg.until_ns.min(self.expiry_ns);
+        }
+        seg
+    }
+
+    fn segment_by_entries(&self, t_ns: u64, hold_ns: u64) -> Segment {
         let cmds = self.commands();
         // Number of entries stamped at or before t (stamps are non-decreasing).
         let k = cmds.partition_point(|c| self.start_ns.saturating_add(c.offset_ns) <= t_ns);
@@ -264,6 +295,22 @@ mod tests {
         let mut t = t;
         t.clear();
         assert_eq!(v_at(&t, 0), None);
+    }
+
+    #[test]
+    fn an_expired_timeline_commands_nothing_and_a_new_one_clears_the_expiry() {
+        // Entries run to 2.5 s, but the timeline expires at 0.8 s: a segment crossing
+        // the expiry is cut there, and nothing is in force afterwards.
+        let mut t = tl(0, &[(0.0, 1.0, 0.0), (0.5, 2.0, 0.0), (2.5, 3.0, 0.0)]);
+        t.set_expiry(800 * MS);
+        assert_eq!(t.segment_at(600 * MS, 300 * MS).until_ns, 800 * MS);
+        assert_eq!(v_at(&t, 799 * MS), Some(2.0));
+        assert_eq!(v_at(&t, 800 * MS), None);
+        assert_eq!(v_at(&t, 2600 * MS), None);
+        assert_eq!(t.segment_at(800 * MS, 300 * MS).until_ns, u64::MAX);
+        t.set(1000 * MS, &[(0.0, 4.0, 0.0)]).unwrap();
+        assert_eq!(t.expiry_ns(), u64::MAX);
+        assert_eq!(v_at(&t, 1200 * MS), Some(4.0));
     }
 
     #[test]

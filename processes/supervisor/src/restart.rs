@@ -6,12 +6,33 @@ use aisle_messages::NodeKind;
 use serde::Deserialize;
 use std::collections::BTreeMap;
 
+/// Shortest realtime heartbeat timeout: three heartbeat periods (50 ms each), so one
+/// late heartbeat never kills a node.
+const MIN_REALTIME_TIMEOUT_S: f64 = 0.15;
+
 #[derive(Debug, Clone, Copy, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Policy {
     pub max_restarts: u32,
     pub window_s: f64,
+    /// Lockstep: a ready node silent this long (wall time) is killed and restarted. The
+    /// sim clock waits for it meanwhile, so nothing moves.
     pub heartbeat_timeout_s: f64,
+    /// Realtime: the same, a few heartbeat periods, because the robot keeps moving.
+    #[serde(default = "default_realtime_timeout")]
+    pub realtime_heartbeat_timeout_s: f64,
+    /// A node (re)started but not yet ready may be silent this long (loading its
+    /// config, building maps, resuming).
+    #[serde(default = "default_start_timeout")]
+    pub start_timeout_s: f64,
+}
+
+fn default_realtime_timeout() -> f64 {
+    0.2
+}
+
+fn default_start_timeout() -> f64 {
+    20.0
 }
 
 /// Per-node overrides: any field left out takes the default's value.
@@ -21,6 +42,8 @@ pub struct PolicyOverride {
     pub max_restarts: Option<u32>,
     pub window_s: Option<f64>,
     pub heartbeat_timeout_s: Option<f64>,
+    pub realtime_heartbeat_timeout_s: Option<f64>,
+    pub start_timeout_s: Option<f64>,
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -29,6 +52,18 @@ pub struct RestartConfig {
     pub default: Policy,
     #[serde(default)]
     pub node: BTreeMap<String, PolicyOverride>,
+}
+
+/// `value` must be finite and at least `min` seconds.
+fn at_least(key: String, value: f64, min: f64) -> Result<(), InvalidKey> {
+    if value.is_finite() && value >= min {
+        Ok(())
+    } else {
+        Err(InvalidKey::new(
+            key,
+            format!("must be at least {min} s, got {value}"),
+        ))
+    }
 }
 
 impl Validate for RestartConfig {
@@ -59,12 +94,13 @@ impl Validate for RestartConfig {
                     format!("must be a positive number of seconds, got {}", p.window_s),
                 ));
             }
-            if !(p.heartbeat_timeout_s.is_finite() && p.heartbeat_timeout_s >= 0.5) {
-                return Err(InvalidKey::new(
-                    key("heartbeat_timeout_s"),
-                    format!("must be at least 0.5 s, got {}", p.heartbeat_timeout_s),
-                ));
-            }
+            at_least(key("heartbeat_timeout_s"), p.heartbeat_timeout_s, 0.5)?;
+            at_least(
+                key("realtime_heartbeat_timeout_s"),
+                p.realtime_heartbeat_timeout_s,
+                MIN_REALTIME_TIMEOUT_S,
+            )?;
+            at_least(key("start_timeout_s"), p.start_timeout_s, 1.0)?;
         }
         Ok(())
     }
@@ -79,6 +115,10 @@ impl RestartConfig {
                 max_restarts: o.max_restarts.unwrap_or(d.max_restarts),
                 window_s: o.window_s.unwrap_or(d.window_s),
                 heartbeat_timeout_s: o.heartbeat_timeout_s.unwrap_or(d.heartbeat_timeout_s),
+                realtime_heartbeat_timeout_s: o
+                    .realtime_heartbeat_timeout_s
+                    .unwrap_or(d.realtime_heartbeat_timeout_s),
+                start_timeout_s: o.start_timeout_s.unwrap_or(d.start_timeout_s),
             },
         }
     }
@@ -120,6 +160,8 @@ mod tests {
             max_restarts: 2,
             window_s: 10.0,
             heartbeat_timeout_s: 5.0,
+            realtime_heartbeat_timeout_s: 0.2,
+            start_timeout_s: 20.0,
         };
         let mut book = RestartBook::default();
         assert_eq!(book.allow(NodeKind::Lidar, &p, 0.0), Ok(1));
@@ -144,6 +186,19 @@ mod tests {
         let cfg = aisle_config::load::<RestartConfig>(&p).unwrap();
         assert_eq!(cfg.policy(NodeKind::Lidar).max_restarts, 4);
         assert_eq!(cfg.policy(NodeKind::Mapper).max_restarts, 1);
+        assert_eq!(
+            cfg.policy(NodeKind::Mapper).realtime_heartbeat_timeout_s,
+            0.2
+        );
+        std::fs::write(
+            &p,
+            text.replace("max_restarts = 4", "realtime_heartbeat_timeout_s = 0.05"),
+        )
+        .unwrap();
+        let e = aisle_config::load::<RestartConfig>(&p)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("node.lidar.realtime_heartbeat_timeout_s"), "{e}");
         std::fs::write(&p, text.replace("[node.lidar]", "[node.lidr]")).unwrap();
         let e = aisle_config::load::<RestartConfig>(&p)
             .unwrap_err()

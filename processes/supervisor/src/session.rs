@@ -151,7 +151,6 @@ struct Session {
     book: LatencyBook,
     mission: Mission,
     goal_id: u64,
-    command_id: u64,
     pose: Pose2,
     now_s: f64,
     ticks: u64,

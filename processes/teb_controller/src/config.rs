@@ -178,6 +178,22 @@ impl Default for HomotopyConfig {
     }
 }
 
+/// How old the controller's inputs may be. Read by the node adapter (the optimiser
+/// itself is handed a pose and a map and never asks their age).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct InputsConfig {
+    /// Seconds: a local map or robot state older than this (sim time in lockstep, also
+    /// wall time in realtime) is refused and the robot commanded to stop.
+    pub max_age: f64,
+}
+
+impl Default for InputsConfig {
+    fn default() -> Self {
+        Self { max_age: 0.3 }
+    }
+}
+
 /// Everything in `config/teb.toml`.
 #[derive(Debug, Clone, PartialEq, Deserialize, Default)]
 #[serde(deny_unknown_fields, default)]
@@ -187,6 +203,7 @@ pub struct TebConfig {
     pub weights: WeightsConfig,
     pub solver: SolverConfig,
     pub homotopy: HomotopyConfig,
+    pub inputs: InputsConfig,
 }
 
 fn bad(key: &str, reason: impl Into<String>) -> InvalidKey {
@@ -252,6 +269,7 @@ impl Validate for TebConfig {
             }
         }
         positive("band.reinit_distance", b.reinit_distance)?;
+        positive("inputs.max_age", self.inputs.max_age)?;
         let w = &self.weights;
         positive("weights.time", w.time)?;
         non_negative("weights.reference", w.reference)?;

@@ -6,6 +6,12 @@
 //! replaces the task; `Idle` clears it. Without a task, or when a step fails, the
 //! trajectory is a single zero command, so the robot stops.
 //!
+//! Freshness is a safety rule here: a local map or robot state older than
+//! `teb.toml`'s `inputs.max_age` (sim time since its tick; in realtime also wall time
+//! since its tick started) is not acted on: the trajectory is a zero command with exit
+//! flag [`EXIT_STALE_INPUT`], so a hung lidar or mapper never leaves the robot driving
+//! on a frozen map.
+//!
 //! Adapter only: the optimisation is [`crate::TebController`]; the loop around it is
 //! the node runtime's (`aisle_node::run`).
 
@@ -20,6 +26,47 @@ use aisle_node::{Cycle, Io, RunContext, Stage};
 use std::time::Duration;
 
 const MAP_TIMEOUT: Duration = Duration::from_secs(30);
+
+/// Exit flag of a trajectory that stops the robot because an input was too old
+/// (aisle's own, beside MATLAB's 0-5 and 6; the supervisor does not replan for it).
+pub const EXIT_STALE_INPUT: u32 = 7;
+
+/// When an input was produced: its tick's sim time and the wall time that tick started.
+#[derive(Debug, Clone, Copy, Default)]
+struct Produced {
+    stamp_ns: u64,
+    tick_wall_ns: u64,
+}
+
+impl Produced {
+    fn of(h: &aisle_messages::Header) -> Produced {
+        Produced {
+            stamp_ns: h.stamp_ns,
+            tick_wall_ns: h.tick_wall_ns,
+        }
+    }
+
+    /// Age at `tick` in sim time, and in realtime the larger of that and the wall age.
+    fn age_ns(&self, tick: &Tick, mode: TickMode) -> u64 {
+        let sim = tick.header.stamp_ns.saturating_sub(self.stamp_ns);
+        match mode {
+            TickMode::Lockstep => sim,
+            TickMode::Realtime => {
+                sim.max(aisle_bus::clock::monotonic_ns().saturating_sub(self.tick_wall_ns))
+            }
+        }
+    }
+}
+
+/// What a controller tick does.
+enum Outcome<'a> {
+    /// No task: stand still.
+    NoTask,
+    /// An input is too old: stop (the reason, for the log).
+    Stale(String),
+    /// One TEB step, or why it failed.
+    Step(Result<&'a StepOutput, String>),
+}
 
 /// The task the controller is on, by goal id.
 struct Task {
@@ -66,6 +113,13 @@ pub struct ControllerStage {
     /// The local map in use, copied out of shared memory (a realtime step may have to
     /// reuse it when no newer one arrived). Capacity is reserved once.
     map: GridCopy,
+    /// When the map in use and the robot state in use were produced.
+    map_made: Produced,
+    state_made: Produced,
+    /// `inputs.max_age` of teb.toml, ns.
+    max_age_ns: u64,
+    /// The last tick stopped for stale inputs (log once per episode).
+    stale: bool,
 }
 
 impl ControllerStage {
@@ -74,6 +128,7 @@ impl ControllerStage {
         let path = config_dir.join("teb.toml");
         let cfg = aisle_config::load::<TebConfig>(&path)
             .map_err(|e| NodeError::setup("teb_controller", e))?;
+        let max_age_ns = (cfg.inputs.max_age * 1e9).round() as u64;
         let teb = TebController::new(cfg)
             .map_err(|e| NodeError::setup(format!("teb_controller: {}", path.display()), e))?;
         Ok(ControllerStage {
@@ -87,6 +142,10 @@ impl ControllerStage {
             pose: start,
             velocity: (0.0, 0.0),
             map: GridCopy::with_capacity(aisle_messages::MAX_GRID_CELLS),
+            map_made: Produced::default(),
+            state_made: Produced::default(),
+            max_age_ns,
+            stale: false,
         })
     }
 
@@ -95,7 +154,10 @@ impl ControllerStage {
         match self.mode {
             TickMode::Lockstep => {
                 match io.wait_for(topics::LOCAL_MAP, MAP_TIMEOUT, |m| m.header.tick >= k)? {
-                    Some(m) => self.map.copy_from(&m),
+                    Some(m) => {
+                        self.map.copy_from(&m);
+                        self.map_made = Produced::of(&m.header);
+                    }
                     None => {
                         return Err(NodeError::Protocol(format!(
                             "teb_controller: no local map for tick {k}"
@@ -106,6 +168,7 @@ impl ControllerStage {
             TickMode::Realtime => {
                 if let Some(m) = io.latest(topics::LOCAL_MAP)? {
                     self.map.copy_from(&m);
+                    self.map_made = Produced::of(&m.header);
                 }
             }
         }
@@ -131,19 +194,62 @@ impl ControllerStage {
         Ok(())
     }
 
-    /// One TEB step at `now_s`; `None` without a task.
-    fn step(&mut self, now_s: f64) -> Option<Result<&StepOutput, String>> {
-        match (self.map.is_empty(), self.task.active) {
-            (_, false) => None,
-            (true, true) => Some(Err("no local map yet".into())),
-            (false, true) => match self.map.view() {
-                Ok(view) => Some(
-                    self.teb
-                        .step(self.pose, self.velocity, now_s, &view)
-                        .map_err(|e| e.to_string()),
-                ),
-                Err(e) => Some(Err(format!("local map: {e}"))),
-            },
+    /// Why the inputs of `tick` may not be acted on, if an input is too old.
+    fn stale_input(&self, tick: &Tick) -> Option<String> {
+        let limit = self.max_age_ns;
+        [
+            ("local map", self.map_made),
+            ("robot state", self.state_made),
+        ]
+        .into_iter()
+        .find_map(|(what, made)| {
+            let age = made.age_ns(tick, self.mode);
+            (age > limit).then(|| {
+                format!(
+                    "the {what} is {:.2} s old (limit {:.2} s, teb.toml inputs.max_age)",
+                    age as f64 * 1e-9,
+                    limit as f64 * 1e-9
+                )
+            })
+        })
+    }
+
+    /// What tick `tick` does: nothing without a task, a stop on stale inputs, else one
+    /// TEB step.
+    fn step(&mut self, tick: &Tick) -> Outcome<'_> {
+        if !self.task.active {
+            return Outcome::NoTask;
+        }
+        if self.map.is_empty() {
+            return Outcome::Step(Err("no local map yet".into()));
+        }
+        if let Some(why) = self.stale_input(tick) {
+            return Outcome::Stale(why);
+        }
+        let now_s = tick.header.stamp_ns as f64 * 1e-9;
+        match self.map.view() {
+            Ok(view) => Outcome::Step(
+                self.teb
+                    .step(self.pose, self.velocity, now_s, &view)
+                    .map_err(|e| e.to_string()),
+            ),
+            Err(e) => Outcome::Step(Err(format!("local map: {e}"))),
+        }
+    }
+
+    /// Logs the start (`stale`: why) and the end (`stepped`) of a stop for stale
+    /// inputs, once each.
+    fn note_staleness(&mut self, stale: Option<String>, stepped: bool, k: u64) {
+        match (stale, self.stale) {
+            (Some(why), false) => {
+                tracing::warn!("teb_controller: tick {k}: {why}: stopping the robot");
+                self.stale = true;
+            }
+            (None, true) if stepped => {
+                tracing::warn!("teb_controller: tick {k}: inputs fresh again");
+                self.stale = false;
+            }
+            _ => {}
         }
     }
 }
@@ -151,7 +257,7 @@ impl ControllerStage {
 /// Writes a step's outcome into a `Trajectory`: its commands, or a single zero command.
 fn fill_trajectory(
     t: &mut Trajectory,
-    step: &Option<Result<&StepOutput, String>>,
+    step: &Outcome,
     goal_id: u64,
     start_ns: u64,
     compute_ns: u64,
@@ -161,7 +267,7 @@ fn fill_trajectory(
     t.start_ns = start_ns;
     t.solve_ns = compute_ns;
     match step {
-        Some(Ok(out)) => {
+        Outcome::Step(Ok(out)) => {
             let n = out.commands.len().min(MAX_COMMANDS);
             t.len = n as u32;
             for (dst, c) in t.commands.iter_mut().zip(&out.commands[..n]) {
@@ -185,13 +291,19 @@ fn fill_trajectory(
             t.cost = out.cost;
             t.max_violation = out.max_violation;
         }
-        Some(Err(_)) => {
+        Outcome::Step(Err(_)) => {
             // Stop: one zero command, flagged as infeasible so the supervisor replans.
             t.len = 1;
             t.exit_flag = 1;
             t.last_feasible_index = -1;
         }
-        None => {
+        Outcome::Stale(_) => {
+            // Stop: one zero command; a new reference would not make the inputs fresh.
+            t.len = 1;
+            t.exit_flag = EXIT_STALE_INPUT;
+            t.last_feasible_index = -1;
+        }
+        Outcome::NoTask => {
             t.len = 1;
             t.last_feasible_index = -1;
         }
@@ -302,14 +414,20 @@ impl Stage for ControllerStage {
         if let Some(rs) = io.latest(topics::ROBOT_STATE)? {
             self.pose = rs.pose.into();
             self.velocity = (rs.twist[0], rs.twist[1]);
+            self.state_made = Produced::of(&rs.header);
         }
         self.take_goal(io)?;
         let stamp = Stamp::of(&tick.header);
         let start_ns = tick.header.stamp_ns;
         let goal_id = self.task.goal_id;
-        let step = self.step(start_ns as f64 * 1e-9);
+        let step = self.step(tick);
+        let stale = match &step {
+            Outcome::Stale(why) => Some(why.clone()),
+            _ => None,
+        };
+        let stepped = matches!(step, Outcome::Step(_));
         let status = match &step {
-            Some(Err(e)) => {
+            Outcome::Step(Err(e)) => {
                 tracing::warn!("teb_controller: step of tick {k} failed: {e}");
                 StageStatus::Failed
             }
@@ -319,6 +437,7 @@ impl Stage for ControllerStage {
         io.publish(topics::TRAJECTORY, stamp, |t| {
             fill_trajectory(t, &step, goal_id, start_ns, compute_ns)
         })?;
+        self.note_staleness(stale, stepped, k);
         let snap = self.teb.snapshot();
         io.publish(topics::CONTROLLER_BAND, stamp, |m| {
             fill_band(m, &snap, goal_id)
@@ -384,6 +503,65 @@ mod tests {
         let c = s.process(&tick(5, STAGE_CONTROLLER), &io).unwrap();
         assert_eq!(c, Cycle::repeat());
         assert_eq!(io.published_len(topics::TRAJECTORY), 1);
+    }
+
+    /// A rotate-in-place task, a 4 m free local map stamped `map_s`, and the robot's
+    /// state stamped `state_s`, for the controller tick `k`.
+    fn rotate_task(io: &MemIo, k: u64, map_s: f64, state_s: f64) {
+        io.push(topics::CONTROLLER_GOAL, |g| {
+            g.goal_id = 1;
+            g.mode = GoalMode::RotateInPlace as u32;
+            g.footprint_length = 0.508;
+            g.footprint_width = 0.43;
+            g.margin = 0.1;
+            g.goal_tolerance = [0.2; 3];
+            g.target.theta = 1.5;
+        });
+        io.push(topics::LOCAL_MAP, |m| {
+            m.header.tick = k;
+            m.header.stamp_ns = (map_s * 1e9) as u64;
+            m.width = 40;
+            m.height = 40;
+            m.resolution = 0.1;
+            m.origin_x = -2.0;
+            m.origin_y = -2.0;
+        });
+        io.push(topics::ROBOT_STATE, |r| {
+            r.header.stamp_ns = (state_s * 1e9) as u64;
+        });
+    }
+
+    fn exit_flag_and_first_v(io: &MemIo, i: usize) -> (u32, f64, u32) {
+        io.published(topics::TRAJECTORY, i, |t| {
+            (
+                t.exit_flag,
+                t.commands[0].v.abs() + t.commands[0].w.abs(),
+                t.len,
+            )
+        })
+        .unwrap()
+    }
+
+    #[test]
+    fn a_stale_map_or_robot_state_stops_the_robot_and_fresh_inputs_resume() {
+        let (mut s, io) = (stage(), MemIo::new());
+        // Tick 10 (1.0 s) with a map of 0.6 s: 0.4 s old, over the 0.3 s limit.
+        rotate_task(&io, 10, 0.6, 1.0);
+        s.process(&tick(10, STAGE_CONTROLLER), &io).unwrap();
+        assert_eq!(exit_flag_and_first_v(&io, 0), (EXIT_STALE_INPUT, 0.0, 1));
+        // A robot state 0.5 s old, the map fresh: stopped all the same.
+        rotate_task(&io, 15, 1.5, 1.0);
+        s.process(&tick(15, STAGE_CONTROLLER), &io).unwrap();
+        assert_eq!(exit_flag_and_first_v(&io, 1).0, EXIT_STALE_INPUT);
+        // Both at most 0.3 s old: a real step, which turns the robot.
+        rotate_task(&io, 20, 1.8, 2.0);
+        s.process(&tick(20, STAGE_CONTROLLER), &io).unwrap();
+        let (flag, speed, len) = exit_flag_and_first_v(&io, 2);
+        assert_ne!(flag, EXIT_STALE_INPUT);
+        assert!(
+            speed > 0.0 && len > 1,
+            "flag {flag}, |v|+|w| {speed}, {len} commands"
+        );
     }
 
     #[test]

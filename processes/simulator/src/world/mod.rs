@@ -208,6 +208,12 @@ impl World {
         Ok(self.timeline.set_iter(start_ns, commands)?)
     }
 
+    /// Ends the timeline in force at `expiry_ns` (sim time): the robot stops then, even
+    /// if the timeline holds later commands (see [`CommandTimeline::set_expiry`]).
+    pub fn set_timeline_expiry(&mut self, expiry_ns: u64) {
+        self.timeline.set_expiry(expiry_ns);
+    }
+
     /// Drops the timeline: the robot stops from the next step on.
     pub fn stop(&mut self) {
         self.timeline.clear();

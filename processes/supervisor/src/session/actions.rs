@@ -10,7 +10,7 @@ use aisle_bus::{Stamp, clock};
 use aisle_geometry::{Footprint, PathPose, Pose2};
 use aisle_messages::{
     GoalMode, MAX_PATH_POSES, NodeKind, PathPoseMsg, PlanRequest, PlanStatus, RectMsg,
-    SimCommandKind, write_name,
+    SimCommandKind,
 };
 use anyhow::anyhow;
 use std::collections::VecDeque;
@@ -238,17 +238,8 @@ impl Session {
         kind: SimCommandKind,
         body: Option<(i32, &str)>,
     ) -> Result<(), RunAborted> {
-        self.command_id += 1;
-        let id = self.command_id;
         let stamp = self.stamp();
-        self.health.sim_command.publish(stamp, |m| {
-            m.command_id = id;
-            m.kind = kind as u32;
-            m.body_index = body.map_or(-1, |b| b.0);
-            if let Some((_, name)) = body {
-                write_name(&mut m.name, name);
-            }
-        })?;
+        self.health.send_sim_command(stamp, kind, body)?;
         Ok(())
     }
 

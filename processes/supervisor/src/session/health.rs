@@ -6,10 +6,10 @@ use super::retained_state::RetainedState;
 use super::{POLL, RunAborted, Session};
 use crate::launch::{ProcessGroup, describe};
 use crate::restart::{RestartBook, RestartConfig};
-use aisle_bus::{Bus, Instance, Publisher, Subscriber, WaitOutcome};
+use aisle_bus::{Bus, BusError, Instance, Publisher, Stamp, Subscriber, WaitOutcome};
 use aisle_messages::{
-    ControllerGoal, Heartbeat, InstanceInfo, MapperControl, NodeKind, NodeState, SimCommand,
-    SimCommandKind, TickMode,
+    ControllerGoal, GroupMembers, Heartbeat, InstanceInfo, MapperControl, NodeKind, NodeState,
+    SimCommand, SimCommandKind, TickMode, write_name,
 };
 use anyhow::anyhow;
 use std::collections::HashMap;
@@ -27,6 +27,8 @@ pub(super) struct NodeHealth {
     pub sim_command: Publisher<SimCommand>,
     pub goal: Publisher<ControllerGoal>,
     pub mapper_control: Publisher<MapperControl>,
+    /// Who is in the group (`GroupMembers`): whose acknowledgements a tick waits for.
+    pub members: Publisher<GroupMembers>,
     pub retained: RetainedState,
     pub heartbeat: Subscriber<Heartbeat>,
     pub bus: Bus,
@@ -41,6 +43,17 @@ pub(super) struct NodeHealth {
     pub running: bool,
     /// Nodes restarted since the session last looked (plans to resend, a robot to stop).
     pub restarted: Vec<NodeKind>,
+    /// Nodes declared dead or hung since the session last looked, with how long each
+    /// had been silent (0 for a crash): the robot must stop.
+    pub declared_dead: Vec<(NodeKind, f64)>,
+    /// Nodes killed as hung, not reaped yet (so their death is declared once).
+    pub hung: Vec<NodeKind>,
+    /// Which heartbeat timeout applies to ready nodes.
+    pub mode: TickMode,
+    /// The last `SimCommand` id sent (ids only grow; the simulator applies each once).
+    pub command_id: u64,
+    /// The stamp of the newest tick, for what the supervisor sends between ticks.
+    pub stamp: Stamp,
     pub started: Instant,
     pub instance: Instance,
     pub last_hygiene: Instant,
@@ -54,7 +67,63 @@ impl NodeHealth {
         self.retained.copy_newest()?;
         self.restart_dead()?;
         self.kill_silent();
+        self.stop_for_the_dead()?;
         self.connect_joiners()
+    }
+
+    /// The part of [`NodeHealth::check`] that must not wait for the next tick: hangs
+    /// declared, and the robot stopped for them. Runs between the sleeps of every wait.
+    fn watch(&mut self) {
+        if self.drain_heartbeats().is_ok() {
+            self.kill_silent();
+        }
+        if let Err(e) = self.stop_for_the_dead() {
+            tracing::error!("could not stop the robot: {e:?}");
+        }
+    }
+
+    /// Realtime: the robot stops as soon as any node is declared dead or hung, whatever
+    /// its last timeline still holds; it moves again only on a fresh trajectory from
+    /// fresh inputs (the controller refuses stale ones), so after the restart.
+    /// Lockstep: the sim clock waits for the node, nothing moves meanwhile.
+    fn stop_for_the_dead(&mut self) -> Result<(), BusError> {
+        if self.declared_dead.is_empty() {
+            return Ok(());
+        }
+        let dead = std::mem::take(&mut self.declared_dead);
+        if self.mode == TickMode::Realtime && self.running {
+            let names: Vec<String> = dead
+                .iter()
+                .map(|(k, silent)| format!("`{}` (silent {silent:.2} s)", k.name()))
+                .collect();
+            tracing::warn!(
+                "t = {:.2} s: robot stopped: {} declared dead",
+                self.stamp.stamp_ns as f64 * 1e-9,
+                names.join(", ")
+            );
+            self.send_sim_command(self.stamp, SimCommandKind::Stop, None)?;
+        }
+        Ok(())
+    }
+
+    /// Sends a command to the simulator with the next command id.
+    pub fn send_sim_command(
+        &mut self,
+        stamp: Stamp,
+        kind: SimCommandKind,
+        body: Option<(i32, &str)>,
+    ) -> Result<(), BusError> {
+        self.command_id += 1;
+        let id = self.command_id;
+        self.sim_command.publish(stamp, |m| {
+            m.command_id = id;
+            m.kind = kind as u32;
+            m.body_index = body.map_or(-1, |b| b.0);
+            if let Some((_, name)) = body {
+                write_name(&mut m.name, name);
+            }
+        })?;
+        Ok(())
     }
 
     /// Reaps every child that exited and restarts it, or ends the run when the policy's
@@ -62,12 +131,19 @@ impl NodeHealth {
     fn restart_dead(&mut self) -> Result<(), RunAborted> {
         while let Some((kind, status)) = self.group.poll_exit() {
             if kind == NodeKind::Recorder {
-                // Losing the record must not stop the robot: go on without it.
+                // Losing the record must not stop the robot: go on without it, and tell
+                // the simulator not to wait for its acknowledgements any more.
+                let why = self
+                    .group
+                    .last_line(kind)
+                    .map(|l| format!(": {l}"))
+                    .unwrap_or_default();
                 tracing::error!(
-                    "the recorder {}; the run goes on unrecorded",
+                    "the recorder {}{why}; the run goes on unrecorded",
                     describe(&status)
                 );
                 self.expected.retain(|k| *k != NodeKind::Recorder);
+                self.publish_members()?;
                 continue;
             }
             let policy = self.restart.policy(kind);
@@ -77,6 +153,11 @@ impl NodeHealth {
                 .last_line(kind)
                 .map(|l| format!("; its last words: {l}"))
                 .unwrap_or_default();
+            // A hung node killed here was declared dead when it was killed.
+            if !self.hung.contains(&kind) {
+                self.declared_dead.push((kind, 0.0));
+            }
+            self.hung.retain(|k| *k != kind);
             match self.restarts.allow(kind, &policy, now_s) {
                 Ok(n) => {
                     tracing::warn!(
@@ -112,29 +193,49 @@ impl NodeHealth {
         Ok(())
     }
 
-    /// Kills every node whose heartbeats stopped; the next check reaps and restarts it.
+    /// Kills every node whose heartbeats stopped (a hang: SIGSTOP, a deadlock, a cycle
+    /// that never ends); the next check reaps and restarts it. A ready node gets the
+    /// clock mode's timeout, one still starting its start timeout.
     fn kill_silent(&mut self) {
         let now = Instant::now();
         for kind in NodeKind::LAUNCHED
             .into_iter()
             .filter(|k| self.expected.contains(k))
         {
-            let timeout = Duration::from_secs_f64(self.restart.policy(kind).heartbeat_timeout_s);
-            if self
-                .last_seen
-                .get(&kind)
-                .is_some_and(|t| now.duration_since(*t) > timeout)
-            {
+            let policy = self.restart.policy(kind);
+            let timeout_s = match (self.ready.contains(&kind), self.mode) {
+                (false, _) => policy.start_timeout_s,
+                (true, TickMode::Lockstep) => policy.heartbeat_timeout_s,
+                (true, TickMode::Realtime) => policy.realtime_heartbeat_timeout_s,
+            };
+            let Some(silent) = self.last_seen.get(&kind).map(|t| now.duration_since(*t)) else {
+                continue;
+            };
+            if silent.as_secs_f64() > timeout_s {
                 tracing::warn!(
-                    "node `{}` sent no heartbeat for {:.1} s: killing it",
+                    "node `{}` sent no heartbeat for {:.2} s (timeout {timeout_s} s): declared hung, killing it",
                     kind.name(),
-                    timeout.as_secs_f64()
+                    silent.as_secs_f64()
                 );
                 self.group.kill(kind);
+                self.declared_dead.push((kind, silent.as_secs_f64()));
+                self.hung.push(kind);
                 // Reaped (and restarted) by the next check; do not kill it twice.
                 self.last_seen.insert(kind, now);
             }
         }
+    }
+
+    /// Announces who is in the group: the supervisor and the expected nodes.
+    pub fn publish_members(&mut self) -> Result<(), RunAborted> {
+        let members = self
+            .expected
+            .iter()
+            .chain([NodeKind::Supervisor].iter())
+            .fold(0u64, |m, k| m | 1 << (*k as u32));
+        self.members
+            .publish(aisle_bus::Stamp::default(), |m| m.members = members)?;
+        Ok(())
     }
 
     /// Connects the supervisor's state publishers to nodes that (re)joined, and keeps
@@ -144,6 +245,7 @@ impl NodeHealth {
         self.sim_command.update_connections()?;
         self.goal.update_connections()?;
         self.mapper_control.update_connections()?;
+        self.members.update_connections()?;
         self.retained.update_connections()?;
         // New nodes (restarts) create new segments: keep them private, twice a second.
         if self.last_hygiene.elapsed() > Duration::from_millis(500) {
@@ -202,7 +304,7 @@ impl NodeHealth {
     ) -> Result<M, RunAborted> {
         let started = Instant::now();
         loop {
-            let (outcome, sample) = sub.wait_for(POLL, &mut pred, || {})?;
+            let (outcome, sample) = sub.wait_for(POLL, &mut pred, || self.watch())?;
             if outcome == WaitOutcome::Matched
                 && let Some(s) = sample
             {
@@ -225,25 +327,9 @@ impl NodeHealth {
 }
 
 impl Session {
-    /// Watches the children (see [`NodeHealth::check`]); a realtime run whose
-    /// controller died stops the robot at once.
+    /// Watches the children (see [`NodeHealth::check`]).
     pub(super) fn supervise(&mut self) -> Result<(), RunAborted> {
-        self.health.check()?;
-        self.after_restarts()
-    }
-
-    fn after_restarts(&mut self) -> Result<(), RunAborted> {
-        if self.mode == TickMode::Realtime
-            && self.health.restarted.contains(&NodeKind::TebController)
-        {
-            self.health
-                .restarted
-                .retain(|k| *k != NodeKind::TebController);
-            // Its timeline may run for seconds: stop now; motion resumes with the
-            // restarted controller's first fresh trajectory.
-            self.sim_command(SimCommandKind::Stop, None)?;
-        }
-        Ok(())
+        self.health.check()
     }
 
     /// Waits until every expected node reported ready, then marks the mission running.
@@ -272,6 +358,7 @@ impl Session {
                 )));
             }
         }
+        self.health.publish_members()?;
         self.health.running = true;
         self.health.instance.restrict_shm_permissions();
         tracing::info!(

@@ -53,6 +53,7 @@ impl Session {
             next_tick = k + 1;
             self.ticks = k;
             self.now_s = tick.header.stamp_ns as f64 * 1e-9;
+            self.health.stamp = self.stamp();
             if self.mode == TickMode::Lockstep {
                 // Act after the perception pipeline (and the controller) finished this tick,
                 // so plans see the newest map and the run is repeatable.
