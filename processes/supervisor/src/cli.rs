@@ -103,9 +103,14 @@ pub struct RunArgs {
     /// Seed of the run (lidar noise).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Switch the lidar off: it returns nothing (shows what the unseen obstacles do).
+    /// Switch the lidar off: it returns nothing (shows what the unseen obstacles do;
+    /// pair it with --allow-collisions to watch the whole mission).
     #[arg(long)]
     pub no_lidar: bool,
+    /// Report collisions without failing the mission. Without it the first collision
+    /// stops the robot (as an e-stop would) and the run exits 1 naming the body.
+    #[arg(long)]
+    pub allow_collisions: bool,
     /// Mission file instead of `<config-dir>/mission.toml`.
     #[arg(long)]
     pub mission: Option<PathBuf>,
@@ -357,6 +362,7 @@ impl From<RunArgs> for RunOptions {
             quiet: args.quiet,
             seed: args.seed,
             lidar_off: args.no_lidar,
+            allow_collisions: args.allow_collisions,
             mission: args.mission,
             kill: args.kill,
             record: args.record,

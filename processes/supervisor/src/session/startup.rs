@@ -108,6 +108,7 @@ impl Session {
             driven: Vec::new(),
             path_length: 0.0,
             truth: None,
+            collisions: Default::default(),
             last_progress_s: f64::NEG_INFINITY,
             graph: config.graph.clone(),
             awaited: Awaited::new(),
