@@ -10,6 +10,7 @@
 //! - [`report`]: the run's metrics and their JSON form.
 //! - [`restart`]: the restart policy and the count of restarts.
 //! - [`check`]: validation of every file in `config/`.
+//! - [`exit`]: the exit codes every subcommand follows.
 //! - [`collisions`]: collision events (body, time) from ground truth.
 //! - [`nodes`]: `aisle node <name>`, which runs one process's node adapter.
 //! - [`records`]: `aisle replay`, `profile` and `render` of MCAP recordings.
@@ -17,8 +18,9 @@
 
 pub mod budgets;
 pub mod check;
-pub mod collisions;
 pub mod cli;
+pub mod collisions;
+pub mod exit;
 pub mod launch;
 pub mod mission;
 pub mod nodes;
