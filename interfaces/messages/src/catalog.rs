@@ -45,7 +45,7 @@ wire_enum!(
 );
 wire_enum!(
     /// Why a plan request ended.
-    PlanStatus { Ok = 0, StartOccupied = 1, GoalOccupied = 2, NoPath = 3, Timeout = 4, InvalidRequest = 5 }
+    PlanStatus { Ok = 0, StartOccupied = 1, GoalOccupied = 2, NoPath = 3, Timeout = 4, InvalidRequest = 5, StartOutsideMap = 6, GoalOutsideMap = 7 }
 );
 wire_enum!(
     /// What the controller is asked to do.
