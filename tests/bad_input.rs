@@ -202,7 +202,7 @@ fn a_mission_that_is_a_device_or_a_fifo_is_refused_at_once() {
 #[test]
 fn a_config_file_over_one_mebibyte_is_refused_naming_it() {
     let dir = TestDir::new("big-config");
-    let cfg = config_with(&dir, "cfg", "budgets.toml", "[", "[");
+    let cfg = config_with(&dir, "cfg", "budgets.toml", "[", "\n[");
     let budgets = cfg.join("budgets.toml");
     let mut text = std::fs::read_to_string(&budgets).unwrap();
     text.push_str(&"# padding\n".repeat(110_000));
