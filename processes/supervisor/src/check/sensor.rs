@@ -112,7 +112,7 @@ pub fn check_lidar(
 ) -> Result<Reach, ConfigError> {
     let bad = |key: &str, why: String| ConfigError::invalid(path, text, key, why);
     let reach = limits.reach();
-    if !(lidar.max_range >= reach.range) {
+    if lidar.max_range.is_nan() || lidar.max_range < reach.range {
         return Err(bad(
             "max_range",
             format!(
