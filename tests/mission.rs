@@ -167,7 +167,9 @@ fn two_lockstep_runs_are_identical() {
 
 #[test]
 fn without_the_lidar_the_robot_hits_the_unseen_obstacles() {
-    let (_, r) = run_report("no-lidar", &["--no-lidar"]);
+    // Collisions allowed: the demonstration drives the whole mission (without the flag
+    // the first collision fails it: tests/bad_input.rs).
+    let (_, r) = run_report("no-lidar", &["--no-lidar", "--allow-collisions"]);
     assert!(
         r.collisions > 0,
         "no collision without the lidar: the unseen obstacles do not matter"

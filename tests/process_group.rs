@@ -208,7 +208,9 @@ fn a_node_built_with_another_schema_is_refused() {
 
 #[test]
 fn check_accepts_the_shipped_config_and_names_file_line_and_key() {
-    let dir = TestDir::new("check");
+    // Not "check": the replay check's test dir has that name, and a test removes its
+    // directory when it ends.
+    let dir = TestDir::new("check-config");
     let ok = run(
         &dir.run_dir(),
         &["check", "--config-dir", config_dir().to_str().unwrap()],

@@ -11,8 +11,10 @@
 
 pub mod checks;
 mod load;
+mod read;
 pub mod scene;
 pub mod testing;
 
 pub use checks::InvalidKey;
 pub use load::{ConfigError, Validate, load, load_toml, parse, parse_toml};
+pub use read::{MAX_CONFIG_BYTES, read_capped, read_capped_with};

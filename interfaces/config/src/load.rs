@@ -84,7 +84,7 @@ fn checked<T: Validate>(value: &T, path: &Path, text: &str) -> Result<(), Config
 /// Reads and deserializes `path` without validating it. Unknown keys are refused by the target types
 /// (`deny_unknown_fields`), so a typo is an error, not a silent default.
 pub fn load_toml<T: DeserializeOwned>(path: &Path) -> Result<(T, String), ConfigError> {
-    let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+    let text = crate::read_capped(path).map_err(|source| ConfigError::Read {
         file: path.to_path_buf(),
         source,
     })?;

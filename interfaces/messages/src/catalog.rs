@@ -45,7 +45,7 @@ wire_enum!(
 );
 wire_enum!(
     /// Why a plan request ended.
-    PlanStatus { Ok = 0, StartOccupied = 1, GoalOccupied = 2, NoPath = 3, Timeout = 4, InvalidRequest = 5 }
+    PlanStatus { Ok = 0, StartOccupied = 1, GoalOccupied = 2, NoPath = 3, Timeout = 4, InvalidRequest = 5, StartOutsideMap = 6, GoalOutsideMap = 7 }
 );
 wire_enum!(
     /// What the controller is asked to do.
@@ -112,21 +112,24 @@ message!(
 
 crate::layout_struct!(
     /// A body of the world, from ground truth: name, pose, bounding box.
-    BodyTruth = "aisle.BodyTruth.v1" {
+    BodyTruth = "aisle.BodyTruth.v2" {
         name: [u8; NAME_LEN],
         pose: Pose2Msg,
         /// Bounding box of the body: length, width (body frame) and height.
         size: [f64; 3],
         is_static: u8,
         carried: u8,
-        _pad: [u8; 6],
+        /// 1 while the robot (or the rack it carries) touches this body: a collision
+        /// event is this flag turning on (v2; the supervisor names the body from it).
+        in_contact: u8,
+        _pad: [u8; 5],
     }
 );
 
 message!(
     /// Ground truth of every body, for metrics, rendering and tests only: navigation
     /// processes must not subscribe to it.
-    WorldTruth = "aisle.WorldTruth.v1" size 5696 {
+    WorldTruth = "aisle.WorldTruth.v2" size 5696 {
         header: Header,
         len: u32,
         collisions: u32,

@@ -103,7 +103,7 @@ impl Graph {
     }
 
     pub fn load(path: &Path) -> Result<Graph, ConfigError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+        let text = aisle_config::read_capped(path).map_err(|source| ConfigError::Read {
             file: path.to_path_buf(),
             source,
         })?;

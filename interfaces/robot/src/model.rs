@@ -111,7 +111,7 @@ impl RobotModel {
     /// Loads `urdf_path` and resolves the mounting links named in `cfg`
     /// (`lidar_mount.link`, `carry.link`): a missing one is an error naming it.
     pub fn load(urdf_path: &Path, cfg: &RobotConfig) -> Result<RobotModel, ModelError> {
-        let text = std::fs::read_to_string(urdf_path).map_err(|source| ModelError::Read {
+        let text = aisle_config::read_capped(urdf_path).map_err(|source| ModelError::Read {
             file: urdf_path.to_path_buf(),
             source,
         })?;

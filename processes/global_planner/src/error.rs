@@ -49,6 +49,12 @@ pub enum PlanErrorKind {
     StartOccupied,
     #[error("the goal pose is in collision")]
     GoalOccupied,
+    /// The start's centre is beyond the map (cells beyond it count as occupied, but
+    /// "in collision" would send a reader looking for an obstacle).
+    #[error("the start pose is outside the map")]
+    StartOutsideMap,
+    #[error("the goal pose is outside the map")]
+    GoalOutsideMap,
     #[error("no collision-free path exists")]
     NoPath,
     #[error("the expansion budget ran out")]

@@ -40,6 +40,8 @@ fn status_of(kind: &PlanErrorKind) -> PlanStatus {
         PlanErrorKind::InvalidInput(_) => PlanStatus::InvalidRequest,
         PlanErrorKind::StartOccupied => PlanStatus::StartOccupied,
         PlanErrorKind::GoalOccupied => PlanStatus::GoalOccupied,
+        PlanErrorKind::StartOutsideMap => PlanStatus::StartOutsideMap,
+        PlanErrorKind::GoalOutsideMap => PlanStatus::GoalOutsideMap,
         PlanErrorKind::NoPath | PlanErrorKind::ValidationFailed => PlanStatus::NoPath,
         PlanErrorKind::BudgetExhausted | PlanErrorKind::Stopped => PlanStatus::Timeout,
     }

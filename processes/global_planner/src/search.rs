@@ -122,6 +122,14 @@ impl Planner {
         let sagitta = cfg.validation_distance.powi(2) / (8.0 * model.radius) + 1e-3;
         let checker = FootprintChecker::new(&self.dm, body.inflated(sagitta), cfg.sweep_cover);
         let output = FootprintChecker::new(&self.dm, body, cfg.sweep_cover);
+        let (x0, y0, x1, y1) = map.bounds();
+        let on_map = |p: &Pose2| p.x >= x0 && p.x <= x1 && p.y >= y0 && p.y <= y1;
+        if !on_map(&start) {
+            return Err(PlanErrorKind::StartOutsideMap);
+        }
+        if !on_map(&goal) {
+            return Err(PlanErrorKind::GoalOutsideMap);
+        }
         if !output.pose_free(&start) {
             return Err(PlanErrorKind::StartOccupied);
         }

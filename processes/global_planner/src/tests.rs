@@ -375,7 +375,7 @@ fn bad_input_is_refused_not_panicked_on() {
     };
     let e = planner.plan(&base, &broken).unwrap_err();
     assert_eq!(e.kind, PlanErrorKind::InvalidInput(InvalidInput::Map));
-    // A goal outside the map is simply occupied.
+    // A goal outside the map is said to be so, not "in collision".
     let e = planner
         .plan(
             &PlanRequest {
@@ -385,7 +385,18 @@ fn bad_input_is_refused_not_panicked_on() {
             &map.view(),
         )
         .unwrap_err();
-    assert_eq!(e.kind, PlanErrorKind::GoalOccupied);
+    assert_eq!(e.kind, PlanErrorKind::GoalOutsideMap);
+    assert_eq!(e.kind.to_string(), "the goal pose is outside the map");
+    let e = planner
+        .plan(
+            &PlanRequest {
+                start: Pose2::new(0.0, -100.0, 0.0),
+                ..base
+            },
+            &map.view(),
+        )
+        .unwrap_err();
+    assert_eq!(e.kind, PlanErrorKind::StartOutsideMap);
 }
 
 /// A dead-end corridor barely wider than the robot: turning around needs a rotation on

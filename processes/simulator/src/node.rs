@@ -493,6 +493,7 @@ fn publish_state(ports: &mut Ports, world: &World, stamp: Stamp) -> Result<(), N
             dst.size = [fp.length, fp.width, b.height()];
             dst.is_static = b.is_static as u8;
             dst.carried = (carried == i as i32) as u8;
+            dst.in_contact = world.in_contact(i) as u8;
         }
     })?;
     Ok(())

@@ -1,5 +1,11 @@
 //! `aisle check`: load every config file the way the processes will, so a mistake is
-//! reported with its file, line and key before anything starts.
+//! reported with its file, line and key before anything starts; then the checks across
+//! files: [`sensor`] (can the lidar see what the robot can drive into before it can
+//! stop?) and [`placement`] (a start pose inside a body, a start or goal outside the
+//! map). `aisle run` goes through the same path before it launches anything.
+
+pub mod placement;
+pub mod sensor;
 
 use crate::budgets::Budgets;
 use crate::mission::MissionConfig;
@@ -57,20 +63,12 @@ pub fn check_dir(dir: &Path) -> Result<Vec<PathBuf>, String> {
         return Err(format!("{}: not a directory", dir.display()));
     }
     let files = ConfigFiles::in_dir(dir);
-    let scene = Scene::load(&files.scene).map_err(|e| e.to_string())?;
-    let (_, model) = aisle_robot::load_robot(&files.robot).map_err(|e| e.to_string())?;
-    aisle_config::load::<aisle_robot::LidarConfig>(&files.lidar).map_err(|e| e.to_string())?;
-    let map_cfg =
-        aisle_config::load::<aisle_mapper::MapConfig>(&files.mapper).map_err(|e| e.to_string())?;
-    aisle_mapper::load_static_map(&map_cfg, &files.scene)
-        .map_err(|e| format!("{}: {e}", files.mapper.display()))?;
-    aisle_config::load::<aisle_global_planner::PlannerConfig>(&files.planner)
-        .map_err(|e| e.to_string())?;
-    aisle_config::load::<aisle_teb_controller::TebConfig>(&files.teb).map_err(|e| e.to_string())?;
-    MissionConfig::load(&files.mission, &scene).map_err(|e| e.to_string())?;
+    let ground = Loaded::load(&files)?;
+    load_mission(&files, &ground, &files.mission)?;
     aisle_config::load::<Budgets>(&files.budgets).map_err(|e| e.to_string())?;
     aisle_config::load::<crate::restart::RestartConfig>(&files.restart)
         .map_err(|e| e.to_string())?;
+    let model = &ground.model;
     let mut checked: Vec<PathBuf> = files.all().iter().map(|p| p.to_path_buf()).collect();
     checked.push(model.file().to_path_buf());
     // The graph is optional in a config directory (the shipped one stands in).
@@ -96,6 +94,80 @@ pub fn check_dir(dir: &Path) -> Result<Vec<PathBuf>, String> {
         }
     }
     Ok(checked)
+}
+
+/// The files the cross-file checks need, loaded and each checked on its own, with the
+/// lidar checked against the robot's limits.
+pub struct Loaded {
+    pub scene: Scene,
+    pub robot: aisle_robot::RobotConfig,
+    pub model: aisle_robot::RobotModel,
+    pub map: placement::Extent,
+    pub teb: aisle_teb_controller::TebConfig,
+}
+
+impl Loaded {
+    pub fn load(files: &ConfigFiles) -> Result<Loaded, String> {
+        let s = |e: &dyn std::fmt::Display| e.to_string();
+        let scene = Scene::load(&files.scene).map_err(|e| s(&e))?;
+        let (robot, model) = aisle_robot::load_robot(&files.robot).map_err(|e| s(&e))?;
+        aisle_config::load::<aisle_robot::LidarConfig>(&files.lidar).map_err(|e| s(&e))?;
+        let map_cfg =
+            aisle_config::load::<aisle_mapper::MapConfig>(&files.mapper).map_err(|e| s(&e))?;
+        let map = aisle_mapper::load_static_map(&map_cfg, &files.scene)
+            .map_err(|e| format!("{}: {e}", files.mapper.display()))?;
+        aisle_config::load::<aisle_global_planner::PlannerConfig>(&files.planner)
+            .map_err(|e| s(&e))?;
+        let teb =
+            aisle_config::load::<aisle_teb_controller::TebConfig>(&files.teb).map_err(|e| s(&e))?;
+        Ok(Loaded {
+            map: map.view().bounds(),
+            scene,
+            robot,
+            model,
+            teb,
+        })
+    }
+}
+
+/// Loads the mission at `path` (the directory's `mission.toml` or `--mission`) and
+/// checks it against the scene and the map, and the lidar against the robot's limits
+/// with the mission's controller period.
+pub fn load_mission(
+    files: &ConfigFiles,
+    ground: &Loaded,
+    path: &Path,
+) -> Result<MissionConfig, String> {
+    let mission = MissionConfig::load(path, &ground.scene).map_err(|e| e.to_string())?;
+    let g = placement::Ground {
+        scene: &ground.scene,
+        scene_path: &files.scene,
+        robot: &ground.robot,
+        model: &ground.model,
+        map: ground.map,
+    };
+    placement::check_mission(&mission, path, &g).map_err(|e| e.to_string())?;
+    let mount = ground
+        .model
+        .mount_in_base(&ground.robot.lidar_mount)
+        .map_err(|e| e.to_string())?;
+    // A tilted mount: the heading of its x axis projected on the floor.
+    let yaw = mount
+        .level_yaw()
+        .unwrap_or_else(|| mount.rotation[1][0].atan2(mount.rotation[0][0]));
+    let limits = sensor::Limits::new(
+        &ground.teb,
+        mission.controller_period_s,
+        &ground.robot,
+        &mount,
+    );
+    let text = aisle_config::read_capped(&files.lidar)
+        .map_err(|e| format!("{}: cannot read: {e}", files.lidar.display()))?;
+    let lidar = aisle_config::parse::<aisle_robot::LidarConfig>(&files.lidar, &text)
+        .map_err(|e| e.to_string())?;
+    sensor::check_lidar(&lidar, &files.lidar, &text, &limits, yaw, &ground.scene)
+        .map_err(|e| e.to_string())?;
+    Ok(mission)
 }
 
 #[cfg(test)]

@@ -1,12 +1,12 @@
 //! Command-line interface. Parses arguments, sets up logging, converts the parsed
 //! arguments into the plain option structs of the modules that do the work (which know
-//! nothing of clap), and maps every outcome to an exit code: 0 success, 1 mission or
-//! check failure, 2 usage or setup error.
+//! nothing of clap), and maps every outcome to an exit code ([`crate::exit`]): 0
+//! success, 1 a negative verdict, 2 could not do what was asked.
 
 use crate::nodes::NodeOptions;
 use crate::records::{RecordRequest, ReplayRequest};
 use crate::session::RunOptions;
-use crate::{check, nodes, records, session};
+use crate::{check, exit, nodes, records, session};
 use aisle_messages::TickMode;
 use clap::{Args, Parser, Subcommand};
 use std::path::{Path, PathBuf};
@@ -16,7 +16,8 @@ use std::process::ExitCode;
 #[command(
     name = "aisle",
     version,
-    about = "Warehouse robot navigation: run the seed mission, check configs, export maps"
+    about = "Warehouse robot navigation: run the seed mission, check configs, export maps",
+    after_help = exit::TABLE
 )]
 pub struct Cli {
     #[command(subcommand)]
@@ -26,24 +27,46 @@ pub struct Cli {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Launch the process group and run the mission of `config/mission.toml`.
+    #[command(
+        after_help = "Exit: 0 mission succeeded, 1 mission failed (a collision unless \
+--allow-collisions, an unreachable goal, a timeout), 2 could not run (invalid config or \
+mission, output path not writable, setup failure, the group could not go on, interrupted)."
+    )]
     Run(RunArgs),
-    /// Validate every file in the config directory.
+    /// Validate every file in the config directory, and across files: the lidar against
+    /// the robot's stopping distance, the mission's start and goals against the scene
+    /// and the map.
+    #[command(
+        after_help = "Exit: 0 valid, 1 invalid (the first error names file, line and \
+key), 2 the config directory cannot be read."
+    )]
     Check {
         #[arg(long)]
         config_dir: Option<PathBuf>,
     },
     /// Maps: export the scene's static map in ROS map_server format.
+    #[command(after_help = "Exit: 0 written, 2 could not (invalid config, unwritable directory).")]
     Map {
         #[command(subcommand)]
         command: MapCommand,
     },
     /// Publish a recorded run into a live process group (`--prefix`/`--root` of its
     /// instance, as `aisle run` logs them), or `--check` it against this build.
+    #[command(
+        after_help = "Exit: 0 replayed (--check: identical), 1 --check diverged \
+(the first divergence is printed), 2 could not (unreadable or damaged record, no group, \
+setup failure)."
+    )]
     Replay(ReplayArgs),
     /// Record a running group (`--prefix`/`--root` as `aisle run` logs them) to an MCAP
     /// file, until Ctrl-C or until the group has been silent for --idle-stop seconds.
+    #[command(after_help = "Exit: 0 recorded, 2 could not (no group, unwritable file).")]
     Record(RecordArgs),
     /// Latency and jitter per stage and end to end from a recorded run.
+    #[command(
+        after_help = "Exit: 0 profiled (a damaged file: what could be read, said so), \
+2 could not (unreadable record, unwritable --svg)."
+    )]
     Profile {
         file: PathBuf,
         /// Deadline for the misses column, milliseconds.
@@ -58,6 +81,7 @@ pub enum Command {
     },
     /// Draw the top view of a recorded run as a PNG, or (`-o run.html`) a self-contained
     /// page that plays the run back.
+    #[command(after_help = "Exit: 0 written, 2 could not (unreadable record, unwritable output).")]
     Render {
         file: PathBuf,
         #[arg(short, long)]
@@ -103,9 +127,14 @@ pub struct RunArgs {
     /// Seed of the run (lidar noise).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Switch the lidar off: it returns nothing (shows what the unseen obstacles do).
+    /// Switch the lidar off: it returns nothing (shows what the unseen obstacles do;
+    /// pair it with --allow-collisions to watch the whole mission).
     #[arg(long)]
     pub no_lidar: bool,
+    /// Report collisions without failing the mission. Without it the first collision
+    /// stops the robot (as an e-stop would) and the run exits 1 naming the body.
+    #[arg(long)]
+    pub allow_collisions: bool,
     /// Mission file instead of `<config-dir>/mission.toml`.
     #[arg(long)]
     pub mission: Option<PathBuf>,
@@ -292,8 +321,11 @@ pub fn main() -> ExitCode {
     }
 }
 
-/// `aisle check`.
+/// `aisle check`: 1 for an invalid config, 2 when there is no directory to check.
 fn check(dir: &Path) -> ExitCode {
+    if !dir.is_dir() {
+        return exit::fail(format!("{}: not a directory", dir.display()));
+    }
     match check::check_dir(dir) {
         Ok(files) => {
             for f in &files {
@@ -304,7 +336,7 @@ fn check(dir: &Path) -> ExitCode {
         }
         Err(e) => {
             eprintln!("error: {e}");
-            ExitCode::from(1)
+            exit::negative()
         }
     }
 }
@@ -320,10 +352,7 @@ fn export_map(config_dir: &Path, dir: &Path, name: &str) -> ExitCode {
             );
             ExitCode::SUCCESS
         }
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::from(1)
-        }
+        Err(e) => exit::fail(e),
     }
 }
 
@@ -334,13 +363,10 @@ fn run(opts: &RunOptions) -> ExitCode {
             if outcome.succeeded {
                 ExitCode::SUCCESS
             } else {
-                ExitCode::from(1)
+                exit::negative()
             }
         }
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::from(2)
-        }
+        Err(e) => exit::fail(format!("{e:#}")),
     }
 }
 
@@ -357,6 +383,7 @@ impl From<RunArgs> for RunOptions {
             quiet: args.quiet,
             seed: args.seed,
             lidar_off: args.no_lidar,
+            allow_collisions: args.allow_collisions,
             mission: args.mission,
             kill: args.kill,
             record: args.record,

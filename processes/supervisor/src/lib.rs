@@ -10,6 +10,8 @@
 //! - [`report`]: the run's metrics and their JSON form.
 //! - [`restart`]: the restart policy and the count of restarts.
 //! - [`check`]: validation of every file in `config/`.
+//! - [`exit`]: the exit codes every subcommand follows.
+//! - [`collisions`]: collision events (body, time) from ground truth.
 //! - [`nodes`]: `aisle node <name>`, which runs one process's node adapter.
 //! - [`records`]: `aisle replay`, `profile` and `render` of MCAP recordings.
 //! - [`replay_check`]: `aisle replay --check`, the mapper and controller against a recording.
@@ -17,6 +19,8 @@
 pub mod budgets;
 pub mod check;
 pub mod cli;
+pub mod collisions;
+pub mod exit;
 pub mod launch;
 pub mod mission;
 pub mod nodes;

@@ -54,9 +54,10 @@ fn causes(e: &anyhow::Error) -> String {
     out
 }
 
+/// Every failure of these commands is "could not do what was asked" (exit 2); only
+/// `--check` has a negative verdict (see [`crate::exit`]).
 fn fail(e: impl std::fmt::Display) -> ExitCode {
-    eprintln!("error: {e}");
-    ExitCode::from(1)
+    crate::exit::fail(e)
 }
 
 pub fn replay(a: &ReplayRequest) -> ExitCode {
@@ -236,9 +237,15 @@ fn replay_check(a: &ReplayRequest) -> ExitCode {
         Ok(s) => s,
         Err(e) => {
             eprintln!("error: {}", causes(&e));
-            return ExitCode::from(2);
+            return crate::exit::could_not();
         }
     };
+    // Damage found while replaying (the file changed since the first read): the ticks
+    // it cut would look divergent, so it is no verdict either way.
+    if let Some(t) = &summary.truncated {
+        eprintln!("error: damaged record: {t}");
+        return crate::exit::could_not();
+    }
     println!(
         "replayed {} ticks of {} into a live mapper and teb_controller",
         summary.ticks,
@@ -252,11 +259,6 @@ fn replay_check(a: &ReplayRequest) -> ExitCode {
         let total: u64 = summary.diverged.values().sum();
         println!("DIVERGED: {total} samples differ; first: {d}");
         return ExitCode::from(1);
-    }
-    // Identical so far, but the whole recording was not checked: not a pass.
-    if let Some(t) = &summary.truncated {
-        eprintln!("error: the file is damaged: what could be read matches; {t}");
-        return ExitCode::from(2);
     }
     if summary.stopped {
         eprintln!("error: stopped early (interrupted)");

@@ -101,8 +101,42 @@ pub struct FreshGroup {
     pub start_offset_ns: u64,
 }
 
-/// Runs the check; `Ok` holds the comparison (identical or not), `Err` a setup failure.
+/// Why `--check` could not judge a recording (exit 2, never a verdict).
+#[derive(Debug)]
+pub struct DamagedRecord(pub String);
+
+impl std::fmt::Display for DamagedRecord {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "damaged record: {}", self.0)
+    }
+}
+
+impl std::error::Error for DamagedRecord {}
+
+/// Reads every message of the recording once, before anything is launched: a file
+/// that cannot be read to its end is refused as damaged. Checking only what the replay
+/// reaches would compare the ticks cut by the damage and call them divergent.
+pub fn refuse_damaged(file: &RecordFile) -> Result<(), DamagedRecord> {
+    for m in file.raw_messages() {
+        if let Err(e) = m {
+            return Err(DamagedRecord(e.to_string()));
+        }
+    }
+    if !file.is_finalised() {
+        return Err(DamagedRecord(format!(
+            "{} has no summary: the recording was not finished",
+            file.path().display()
+        )));
+    }
+    Ok(())
+}
+
+/// Runs the check; `Ok` holds the comparison (identical or not), `Err` a setup failure
+/// or a [`DamagedRecord`].
 pub fn check(file_path: &Path, config_dir: Option<&Path>) -> anyhow::Result<LockstepSummary> {
+    let file = RecordFile::open(file_path)?;
+    refuse_damaged(&file)?;
+    drop(file);
     let plan = FreshGroup {
         nodes: NODES.to_vec(),
         publish: inputs(),

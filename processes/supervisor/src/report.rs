@@ -2,6 +2,7 @@
 //! Plain data: the session fills it, tests and tools read it back.
 
 use crate::budgets::StageSummary;
+use crate::collisions::CollisionEvent;
 use crate::mission::LegResult;
 use serde::{Deserialize, Serialize};
 
@@ -35,6 +36,10 @@ pub struct RunReport {
     /// Smallest distance between the robot (plus carried rack) and any body, ground truth.
     pub min_clearance_m: f64,
     pub collisions: u32,
+    /// Each collision: the body touched and when (the first one fails the mission
+    /// unless the run allowed collisions).
+    #[serde(default)]
+    pub collision_events: Vec<CollisionEvent>,
     pub replans: u32,
     /// Node restarts after a crash or a missed heartbeat deadline.
     pub restarts: u32,
@@ -76,6 +81,9 @@ impl RunReport {
             "  driven {:.2} m, min clearance {:.3} m, collisions {}, replans {}, restarts {}\n",
             self.path_length_m, self.min_clearance_m, self.collisions, self.replans, self.restarts
         ));
+        for e in &self.collision_events {
+            out.push_str(&format!("  {e}\n"));
+        }
         for (i, l) in self.legs.iter().enumerate() {
             out.push_str(&format!(
                 "  leg {} {:<14} {:<8} {:6.1} s -> {:6.1} s  error {:.3} m {:.3} rad  replans {}\n",

@@ -12,6 +12,7 @@
 //! - [`shutdown`]: stopping the group and the run's report.
 
 mod actions;
+mod collision;
 mod health;
 mod retained_state;
 mod run_config;
@@ -42,6 +43,8 @@ pub struct RunOptions {
     pub quiet: bool,
     pub seed: u64,
     pub lidar_off: bool,
+    /// Collisions are reported but do not fail the mission (demonstrations).
+    pub allow_collisions: bool,
     pub mission: Option<PathBuf>,
     /// Fault injection: SIGKILL a node at a tick (`lidar@120`).
     pub kill: Vec<String>,
@@ -157,6 +160,8 @@ struct Session {
     driven: Vec<[f64; 4]>,
     path_length: f64,
     truth: Option<WorldTruth>,
+    /// Collision events seen in ground truth so far.
+    collisions: crate::collisions::CollisionWatch,
     last_progress_s: f64,
     /// Whose acknowledgements a lockstep tick waits for (`config/graph.toml`).
     graph: aisle_node::Graph,

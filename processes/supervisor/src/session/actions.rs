@@ -268,6 +268,8 @@ fn plan_status_text(s: PlanStatus) -> &'static str {
         PlanStatus::Ok => "ok",
         PlanStatus::StartOccupied => "the start is in collision",
         PlanStatus::GoalOccupied => "the goal is in collision",
+        PlanStatus::StartOutsideMap => "the start is outside the map",
+        PlanStatus::GoalOutsideMap => "the goal is outside the map",
         PlanStatus::NoPath => "no path exists",
         PlanStatus::Timeout => "the search ran out of time",
         PlanStatus::InvalidRequest => "the request is invalid",

@@ -11,6 +11,7 @@ use aisle_config::scene::Scene;
 use aisle_messages::NodeKind;
 use aisle_node::Graph;
 use anyhow::{anyhow, bail};
+use std::path::{Path, PathBuf};
 
 /// The configuration of one run, loaded and checked.
 pub(super) struct RunConfig {
@@ -23,15 +24,33 @@ pub(super) struct RunConfig {
     pub footprints: Footprints,
     /// Who launches, acknowledges and retains what (`config/graph.toml`).
     pub graph: Graph,
+    /// Where the recorder writes, when `--record` asked for one it may write.
+    pub record: Option<PathBuf>,
 }
 
 impl RunConfig {
     pub fn load(opts: &RunOptions) -> anyhow::Result<RunConfig> {
+        // Outputs first: a bad path must not cost a whole mission. The record is not
+        // the mission: one it may not write (permissions, a read-only file system) is
+        // a warning and the run goes on unrecorded; a malformed path is an error.
+        if let Some(p) = &opts.report {
+            writable_output("--report", p)?;
+        }
+        let mut record = opts.record.clone();
+        if let Some(p) = &opts.record {
+            output_shape("--record", p)?;
+            if let Err(e) = output_access("--record", p) {
+                tracing::warn!("{e:#}; the run goes on unrecorded");
+                record = None;
+            }
+        }
         let files = ConfigFiles::in_dir(&opts.config_dir);
         check::check_dir(&opts.config_dir).map_err(|e| anyhow!(e))?;
-        let scene = Scene::load(&files.scene)?;
+        let ground = check::Loaded::load(&files).map_err(|e| anyhow!(e))?;
         let mission_path = opts.mission.clone().unwrap_or(files.mission.clone());
-        let mission = MissionConfig::load(&mission_path, &scene)?;
+        let mission =
+            check::load_mission(&files, &ground, &mission_path).map_err(|e| anyhow!(e))?;
+        let scene = ground.scene;
         let budgets = aisle_config::load::<Budgets>(&files.budgets)?;
         let robot = aisle_config::load::<aisle_robot::RobotConfig>(&files.robot)?;
         let f = &robot.footprint;
@@ -54,6 +73,7 @@ impl RunConfig {
             bail!("--crash-on-start: no node `{n}`");
         }
         Ok(RunConfig {
+            record,
             restart,
             kills,
             scene,
@@ -77,4 +97,95 @@ fn parse_kill(spec: &str) -> anyhow::Result<(NodeKind, u64)> {
         .parse()
         .map_err(|_| anyhow!("--kill {spec}: `{tick}` is not a tick number"))?;
     Ok((kind, tick))
+}
+
+/// An output file the run will write at its end (`--report`): refused now, before
+/// anything is launched, when it is a directory or its directory is missing or not
+/// writable. Names the path and the OS error.
+pub(crate) fn writable_output(flag: &str, path: &Path) -> anyhow::Result<()> {
+    output_shape(flag, path)?;
+    output_access(flag, path)
+}
+
+/// The path can name an output file: not empty, not a directory, in a directory that
+/// exists.
+fn output_shape(flag: &str, path: &Path) -> anyhow::Result<()> {
+    if path.as_os_str().is_empty() {
+        bail!("{flag}: the path is empty");
+    }
+    if path.is_dir() {
+        bail!("{flag} {}: is a directory", path.display());
+    }
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let meta = std::fs::metadata(parent).map_err(|e| {
+        anyhow!(
+            "{flag} {}: directory {}: {e}",
+            path.display(),
+            parent.display()
+        )
+    })?;
+    if !meta.is_dir() {
+        bail!(
+            "{flag} {}: {} is not a directory",
+            path.display(),
+            parent.display()
+        );
+    }
+    Ok(())
+}
+
+/// The caller may write the output file (or create it in its directory).
+fn output_access(flag: &str, path: &Path) -> anyhow::Result<()> {
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    // Ask the kernel (it knows read-only mounts, ACLs and the caller's groups) instead
+    // of creating a file the run might not write after all.
+    let target = if path.exists() { path } else { parent };
+    let c = std::ffi::CString::new(std::os::unix::ffi::OsStrExt::as_bytes(target.as_os_str()))
+        .map_err(|_| anyhow!("{flag} {}: the path holds a NUL byte", path.display()))?;
+    // SAFETY: `c` is a valid NUL-terminated string that outlives the call.
+    if unsafe { libc::access(c.as_ptr(), libc::W_OK) } != 0 {
+        let e = std::io::Error::last_os_error();
+        bail!(
+            "{flag} {}: cannot write {}: {e}",
+            path.display(),
+            target.display()
+        );
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn output_paths_are_checked_before_the_run() {
+        let dir = std::env::temp_dir().join(format!("aisle-out-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        writable_output("--report", &dir.join("r.json")).unwrap();
+        let e = writable_output("--report", Path::new("/nonexistent/dir/x.json")).unwrap_err();
+        let e = e.to_string();
+        assert!(
+            e.contains("/nonexistent/dir/x.json") && e.contains("No such file"),
+            "{e}"
+        );
+        let e = writable_output("--record", &dir).unwrap_err().to_string();
+        assert!(e.contains("is a directory"), "{e}");
+        let e = writable_output("--report", Path::new(""))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("empty"), "{e}");
+        // Root may write anywhere: the permission case only means something otherwise.
+        if unsafe { libc::geteuid() } != 0 {
+            let e = writable_output("--report", Path::new("/proc/x.json")).unwrap_err();
+            assert!(e.to_string().contains("cannot write"), "{e}");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }

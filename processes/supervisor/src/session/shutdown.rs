@@ -47,6 +47,7 @@ impl Session {
             path_length_m: self.path_length,
             min_clearance_m: truth.map_or(f64::NAN, |t| t.min_clearance),
             collisions: truth.map_or(0, |t| t.collisions),
+            collision_events: self.collisions.events.clone(),
             replans: m.replans_total(),
             restarts: self.health.restarts.total(),
             legs: m.results.clone(),

@@ -113,6 +113,7 @@ impl Session {
             driven: Vec::new(),
             path_length: 0.0,
             truth: None,
+            collisions: Default::default(),
             last_progress_s: f64::NEG_INFINITY,
             graph: config.graph.clone(),
             awaited: Awaited::new(),
@@ -149,7 +150,7 @@ fn launch_group(
     let lidar_off = opts.lidar_off;
     let crash = opts.crash_on_start.clone();
     // The recorder runs in the nodes' working directory: give it an absolute path.
-    let record = match &opts.record {
+    let record = match &config.record {
         Some(p) if p.is_relative() => Some(std::env::current_dir()?.join(p)),
         other => other.clone(),
     };

@@ -69,6 +69,9 @@ impl Session {
             }
             actions.extend(self.read_trajectories()?);
             actions.extend(self.mission.on_tick(self.now_s, self.pose));
+            if let Some(halt) = self.collision_halt(opts) {
+                actions = halt;
+            }
             let mut planner_ns = 0;
             self.execute(actions, config, planner_timeout, &mut planner_ns)?;
             self.publish_status()?;
@@ -164,10 +167,7 @@ impl Session {
             self.driven
                 .push([rs.header.stamp_ns as f64 * 1e-9, pose.x, pose.y, pose.theta]);
         }
-        if let Some(t) = self.ports.truth.latest()? {
-            self.truth = Some(*t);
-        }
-        Ok(())
+        self.observe_truth()
     }
 
     /// Every trajectory since the last tick: its end-to-end latency, and for the
