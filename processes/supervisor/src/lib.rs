@@ -10,12 +10,14 @@
 //! - [`report`]: the run's metrics and their JSON form.
 //! - [`restart`]: the restart policy and the count of restarts.
 //! - [`check`]: validation of every file in `config/`.
+//! - [`clean`]: `aisle clean` and the sweep of stale instances before a run.
 //! - [`nodes`]: `aisle node <name>`, which runs one process's node adapter.
 //! - [`records`]: `aisle replay`, `profile` and `render` of MCAP recordings.
 //! - [`replay_check`]: `aisle replay --check`, the mapper and controller against a recording.
 
 pub mod budgets;
 pub mod check;
+pub mod clean;
 pub mod cli;
 pub mod launch;
 pub mod mission;

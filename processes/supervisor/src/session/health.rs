@@ -6,7 +6,7 @@ use super::retained_state::RetainedState;
 use super::{POLL, RunAborted, Session};
 use crate::launch::{ProcessGroup, describe};
 use crate::restart::{RestartBook, RestartConfig};
-use aisle_bus::{Bus, Instance, Publisher, Subscriber, WaitOutcome};
+use aisle_bus::{Bus, Publisher, Subscriber, WaitOutcome};
 use aisle_messages::{
     ControllerGoal, Heartbeat, InstanceInfo, MapperControl, NodeKind, NodeState, SimCommand,
     SimCommandKind, TickMode,
@@ -42,8 +42,6 @@ pub(super) struct NodeHealth {
     /// Nodes restarted since the session last looked (plans to resend, a robot to stop).
     pub restarted: Vec<NodeKind>,
     pub started: Instant,
-    pub instance: Instance,
-    pub last_hygiene: Instant,
 }
 
 impl NodeHealth {
@@ -137,19 +135,13 @@ impl NodeHealth {
         }
     }
 
-    /// Connects the supervisor's state publishers to nodes that (re)joined, and keeps
-    /// the segments of new nodes private.
+    /// Connects the supervisor's state publishers to nodes that (re)joined.
     fn connect_joiners(&mut self) -> Result<(), RunAborted> {
         self.info.update_connections()?;
         self.sim_command.update_connections()?;
         self.goal.update_connections()?;
         self.mapper_control.update_connections()?;
         self.retained.update_connections()?;
-        // New nodes (restarts) create new segments: keep them private, twice a second.
-        if self.last_hygiene.elapsed() > Duration::from_millis(500) {
-            self.last_hygiene = Instant::now();
-            self.instance.restrict_shm_permissions();
-        }
         Ok(())
     }
 
@@ -273,7 +265,6 @@ impl Session {
             }
         }
         self.health.running = true;
-        self.health.instance.restrict_shm_permissions();
         tracing::info!(
             "all {} nodes ready after {:.2} s",
             self.health.ready.len(),

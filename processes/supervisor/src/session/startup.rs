@@ -91,8 +91,6 @@ impl Session {
             running: false,
             restarted: Vec::new(),
             started: now,
-            instance: instance.clone(),
-            last_hygiene: now,
         };
         Ok(Session {
             ports,
