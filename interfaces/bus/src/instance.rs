@@ -27,7 +27,7 @@ pub struct Instance {
 }
 
 impl Instance {
-    /// A fresh instance under `base` (e.g. `/tmp/aisle`): the prefix combines the pid,
+    /// A fresh instance under `base` (e.g. `/tmp/aisle-0`, see `run_dir`): the prefix combines the pid,
     /// a per-process counter and the monotonic clock, so concurrent launches differ.
     pub fn unique(base: &StdPath) -> Instance {
         let n = COUNTER.fetch_add(1, Ordering::Relaxed);
