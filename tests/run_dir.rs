@@ -291,8 +291,9 @@ fn a_killed_supervisors_instance_is_swept_by_the_next_run() {
     let rd = dir.run_dir();
     let (pid, mut child, nodes) = start_group(&rd, &[]);
     kill_supervisor(pid, &mut child, &nodes);
+    // Its root (with the owner record) is left; its /dev/shm files too, unless a run of
+    // a parallel test already swept them (a dead creator pid's files go from anywhere).
     assert_eq!(root_of(&rd, pid).len(), 1, "the killed run left its root");
-    assert!(!shm_leftovers(pid).is_empty(), "and its shared memory");
 
     let out = run(&rd, &["run", "--quiet"]);
     assert!(

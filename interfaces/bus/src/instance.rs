@@ -111,7 +111,7 @@ impl Instance {
             Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
                 if Owner::read(&self.root) != Some(me) {
                     return Err(self.error(format!(
-                        "{} belongs to another process ({})",
+                        "{} is claimed by another process (see its {})",
                         self.root.display(),
                         crate::owner::OWNER_FILE
                     )));
@@ -145,9 +145,26 @@ impl Instance {
         mgmt_segment::check_private(&self.prefix)
     }
 
-    /// The management segment is still private (after iceoryx2 opened it).
+    /// Every shared-memory file of the instance is this user's and closed to everyone
+    /// else. Checked after iceoryx2 opened a node: had it made a management segment of
+    /// its own (another iceoryx2 version, another name), it would be 0666 and show here.
     pub fn check_private(&self) -> Result<(), BusError> {
-        mgmt_segment::check_private(&self.prefix)
+        use std::os::unix::fs::{MetadataExt, PermissionsExt};
+        mgmt_segment::check_private(&self.prefix)?;
+        for f in self.shm_files() {
+            let Ok(meta) = std::fs::symlink_metadata(&f) else {
+                continue; // removed meanwhile (a node of the instance ended)
+            };
+            let mode = meta.permissions().mode() & 0o7777;
+            if meta.uid() != crate::run_dir::euid() || mode & 0o077 != 0 {
+                return Err(self.error(format!(
+                    "{} (owner uid {}, mode {mode:04o}) is not private to this user: refused",
+                    f.display(),
+                    meta.uid()
+                )));
+            }
+        }
+        Ok(())
     }
 
     fn check_root(&self) -> Result<(), BusError> {

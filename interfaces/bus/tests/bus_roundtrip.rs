@@ -167,3 +167,24 @@ fn two_instances_do_not_see_each_other() {
     a.remove().unwrap();
     b.remove().unwrap();
 }
+
+#[test]
+fn a_join_is_refused_when_a_file_of_the_instance_is_open_to_others() {
+    use std::os::unix::fs::PermissionsExt;
+    let inst = instance();
+    {
+        let (_sup, announcement) = Bus::create_instance(&inst, 1, TickMode::Lockstep).unwrap();
+        // What iceoryx2 would make were the private management segment not found.
+        let planted = format!("/dev/shm/{}planted.global_mgmt", inst.prefix);
+        std::fs::write(&planted, b"").unwrap();
+        std::fs::set_permissions(&planted, std::fs::Permissions::from_mode(0o666)).unwrap();
+        let err =
+            join_while_serving(&inst, &announcement, NodeKind::Lidar).expect_err("must be refused");
+        let text = err.to_string();
+        assert!(
+            text.contains(&planted) && text.contains("mode 0666"),
+            "{text}"
+        );
+    }
+    inst.remove().unwrap();
+}

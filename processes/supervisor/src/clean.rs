@@ -30,8 +30,9 @@ pub fn clean(dry_run: bool) -> ExitCode {
     for e in &report.errors {
         eprintln!("error: could not remove {e}");
     }
+    let done = if dry_run { "to remove" } else { "removed" };
     println!(
-        "{} stale instance(s) {verb}, {} kept, in {} and /dev/shm",
+        "{} stale instance(s) {done}, {} kept, in {} and /dev/shm",
         report.removed.len(),
         report.kept.len(),
         dir.display()
