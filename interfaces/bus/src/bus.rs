@@ -34,6 +34,9 @@ impl Bus {
                 prefix: instance.prefix.clone(),
                 what: format!("node {}: {e:?}", kind.name()),
             })?;
+        // iceoryx2 opened the private management segment rather than making its own
+        // (world-accessible) one: a mismatch with this iceoryx2 version shows here.
+        instance.check_private()?;
         Ok(Bus {
             node,
             config,
@@ -49,7 +52,6 @@ impl Bus {
         seed: u64,
         mode: TickMode,
     ) -> Result<(Bus, Publisher<InstanceInfo>), BusError> {
-        instance.create_root()?;
         Self::announce(instance, aisle_messages::schema_hash(), seed, mode)
     }
 
@@ -60,7 +62,7 @@ impl Bus {
         seed: u64,
         mode: TickMode,
     ) -> Result<(Bus, Publisher<InstanceInfo>), BusError> {
-        instance.create_root()?;
+        instance.claim()?;
         let bus = Self::open(instance, NodeKind::Supervisor)?;
         let mut info = bus.publisher(topics::INSTANCE)?;
         info.publish(Stamp::default(), |m| {
@@ -78,6 +80,7 @@ impl Bus {
         kind: NodeKind,
         timeout: Duration,
     ) -> Result<(Bus, InstanceInfo), BusError> {
+        instance.check_joinable()?;
         let bus = Self::open(instance, kind)?;
         let sub = bus.subscriber(topics::INSTANCE)?;
         let (outcome, sample) = sub.wait_for(timeout, |_| true, || {})?;

@@ -14,6 +14,14 @@ pub enum BusError {
         theirs: String,
         prefix: String,
     },
+    #[error(
+        "no instance `{prefix}` under {root}: {what}; is its group running? (`aisle run` logs the --prefix and --root of its instance)"
+    )]
+    NoInstance {
+        prefix: String,
+        root: std::path::PathBuf,
+        what: String,
+    },
     #[error("no supervisor answered on instance `{prefix}` within {waited_ms} ms")]
     NoSupervisor { prefix: String, waited_ms: u64 },
     #[error("stop requested")]

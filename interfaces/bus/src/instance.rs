@@ -1,7 +1,11 @@
 //! One isolated iceoryx2 instance: a unique file prefix (for /dev/shm) and a root
 //! directory (for service and node metadata), so parallel runs never see each other.
+//! Its creator claims it (root, owner record, private management segment, see
+//! `mgmt_segment.rs`) before any iceoryx2 node exists; a joiner only joins one that
+//! exists. Nothing of it is ever accessible to another user.
 
-use crate::BusError;
+use crate::owner::Owner;
+use crate::{BusError, mgmt_segment};
 use iceoryx2::config::Config;
 use iceoryx2::prelude::*;
 use std::path::{Path as StdPath, PathBuf};
@@ -23,7 +27,7 @@ pub struct Instance {
 }
 
 impl Instance {
-    /// A fresh instance under `base` (e.g. `/tmp/aisle`): the prefix combines the pid,
+    /// A fresh instance under `base` (e.g. `/tmp/aisle-0`, see `run_dir`): the prefix combines the pid,
     /// a per-process counter and the monotonic clock, so concurrent launches differ.
     pub fn unique(base: &StdPath) -> Instance {
         let n = COUNTER.fetch_add(1, Ordering::Relaxed);
@@ -40,12 +44,7 @@ impl Instance {
     pub fn new(prefix: impl Into<String>, root: impl Into<PathBuf>) -> Result<Instance, BusError> {
         let prefix = prefix.into();
         let root = root.into();
-        if prefix.is_empty()
-            || prefix.len() > 48
-            || !prefix
-                .chars()
-                .all(|c| c.is_ascii_alphanumeric() || c == '_')
-        {
+        if !valid_prefix(&prefix) {
             return Err(BusError::Instance {
                 prefix,
                 what: "the prefix must be 1-48 characters of [A-Za-z0-9_]".into(),
@@ -88,17 +87,98 @@ impl Instance {
         Ok(cfg)
     }
 
-    /// Creates the root directory, readable and writable by the owner only.
+    /// Creates the root directory, readable and writable by the owner only, and checks
+    /// what is there (an existing root must be a directory of this user, 0700).
     pub fn create_root(&self) -> Result<(), BusError> {
         use std::os::unix::fs::DirBuilderExt;
         std::fs::DirBuilder::new()
             .recursive(true)
             .mode(0o700)
             .create(&self.root)
-            .map_err(|e| BusError::Instance {
-                prefix: self.prefix.clone(),
-                what: format!("cannot create {}: {e}", self.root.display()),
-            })
+            .map_err(|e| self.error(format!("cannot create {}: {e}", self.root.display())))?;
+        self.check_root()
+    }
+
+    /// The creator's side: the root, the owner record (this process, for the sweep of a
+    /// later run) and iceoryx2's management segment, all private, before any iceoryx2
+    /// node exists.
+    pub fn claim(&self) -> Result<(), BusError> {
+        self.create_root()?;
+        let me =
+            Owner::current().ok_or_else(|| self.error("cannot read /proc/self/stat".into()))?;
+        match me.write(&self.root) {
+            Ok(()) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+                if Owner::read(&self.root) != Some(me) {
+                    return Err(self.error(format!(
+                        "{} is claimed by another process (see its {})",
+                        self.root.display(),
+                        crate::owner::OWNER_FILE
+                    )));
+                }
+            }
+            Err(e) => return Err(self.error(format!("cannot write the owner record: {e}"))),
+        }
+        mgmt_segment::create_private(&self.prefix)
+    }
+
+    /// A joiner's side: the instance must exist (root and management segment, both
+    /// private to this user), so a join never creates one that nobody serves.
+    pub fn check_joinable(&self) -> Result<(), BusError> {
+        let missing = |what: String| BusError::NoInstance {
+            prefix: self.prefix.clone(),
+            root: self.root.clone(),
+            what,
+        };
+        match std::fs::symlink_metadata(&self.root) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                return Err(missing("the root directory does not exist".into()));
+            }
+            _ => self.check_root()?,
+        }
+        if !mgmt_segment::path(&self.prefix).exists() {
+            return Err(missing(format!(
+                "{} does not exist",
+                mgmt_segment::path(&self.prefix).display()
+            )));
+        }
+        mgmt_segment::check_private(&self.prefix)
+    }
+
+    /// Every shared-memory file of the instance is this user's and closed to everyone
+    /// else. Checked after iceoryx2 opened a node: had it made a management segment of
+    /// its own (another iceoryx2 version, another name), it would be 0666 and show here.
+    pub fn check_private(&self) -> Result<(), BusError> {
+        use std::os::unix::fs::{MetadataExt, PermissionsExt};
+        mgmt_segment::check_private(&self.prefix)?;
+        for f in self.shm_files() {
+            let Ok(meta) = std::fs::symlink_metadata(&f) else {
+                continue; // removed meanwhile (a node of the instance ended)
+            };
+            let mode = meta.permissions().mode() & 0o7777;
+            if meta.uid() != crate::run_dir::euid() || mode & 0o077 != 0 {
+                return Err(self.error(format!(
+                    "{} (owner uid {}, mode {mode:04o}) is not private to this user: refused",
+                    f.display(),
+                    meta.uid()
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    fn check_root(&self) -> Result<(), BusError> {
+        let meta = std::fs::symlink_metadata(&self.root)
+            .map_err(|e| self.error(format!("{}: {e}", self.root.display())))?;
+        crate::run_dir::check_dir(&self.root, &meta, crate::run_dir::euid(), 0o077)
+            .map_err(|e| self.error(e.to_string()))
+    }
+
+    fn error(&self, what: String) -> BusError {
+        BusError::Instance {
+            prefix: self.prefix.clone(),
+            what,
+        }
     }
 
     /// Shared-memory files of this instance currently in /dev/shm.
@@ -130,31 +210,19 @@ impl Instance {
         }
     }
 
-    /// Makes every shared-memory file of the instance readable and writable by its
-    /// owner only. iceoryx2 0.10 creates each node's `global_mgmt` segment open to
-    /// everyone; processes of the instance run as the same user, so they keep access.
-    /// Returns how many files were changed.
-    pub fn restrict_shm_permissions(&self) -> usize {
-        use std::os::unix::fs::PermissionsExt;
-        let mut changed = 0;
-        for f in self.shm_files() {
-            if let Ok(meta) = std::fs::metadata(&f) {
-                let mode = meta.permissions().mode();
-                if mode & 0o077 != 0
-                    && std::fs::set_permissions(&f, std::fs::Permissions::from_mode(mode & 0o700))
-                        .is_ok()
-                {
-                    changed += 1;
-                }
-            }
-        }
-        changed
-    }
-
     /// True when nothing of the instance remains on disk or in /dev/shm.
     pub fn is_gone(&self) -> bool {
         self.shm_files().is_empty() && !self.root.exists()
     }
+}
+
+/// 1-48 characters of `[A-Za-z0-9_]` (iceoryx2 file names, no path separators).
+pub fn valid_prefix(prefix: &str) -> bool {
+    !prefix.is_empty()
+        && prefix.len() <= 48
+        && prefix
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_')
 }
 
 #[cfg(test)]

@@ -1,7 +1,9 @@
 //! A thin typed layer over iceoryx2 for the aisle processes.
 //!
 //! - [`Instance`]: one isolated iceoryx2 instance per launch (unique prefix and root),
-//!   handed to every child, and removed without a trace when the launch ends.
+//!   handed to every child, private to its user, and removed without a trace when the
+//!   launch ends; [`run_dir`] is where roots live and whether that place is trusted;
+//!   [`sweep`] removes what dead instances left.
 //! - [`Bus`]: a process's membership: its iceoryx2 node, the schema-hash check on join,
 //!   heartbeats, and cleanup of resources left by dead nodes.
 //! - [`Publisher`] / [`Subscriber`]: typed pub/sub ports, each paired with an event
@@ -20,11 +22,15 @@ mod bus;
 pub mod clock;
 mod error;
 mod instance;
+mod mgmt_segment;
 mod node;
+pub mod owner;
 mod port;
 mod raw;
 mod request;
+pub mod run_dir;
 pub mod signals;
+pub mod sweep;
 
 pub use aisle_messages::{Qos, Topic};
 pub use args::{NodeArgs, StageTimer};

@@ -103,11 +103,49 @@ fn a_process_of_another_schema_is_refused_with_both_hashes() {
 #[test]
 fn joining_an_instance_without_supervisor_fails_in_bounded_time() {
     let inst = instance();
-    inst.create_root().unwrap();
+    inst.claim().unwrap();
     let err = Bus::join(&inst, NodeKind::Lidar, Duration::from_millis(150))
         .err()
         .unwrap();
     assert!(matches!(err, BusError::NoSupervisor { .. }), "{err}");
+    inst.remove().unwrap();
+}
+
+#[test]
+fn joining_an_instance_that_does_not_exist_fails_and_leaves_nothing() {
+    let inst = instance();
+    let err = Bus::join(&inst, NodeKind::Replay, Duration::from_secs(5))
+        .err()
+        .unwrap();
+    assert!(matches!(err, BusError::NoInstance { .. }), "{err}");
+    assert!(err.to_string().contains("does not exist"), "{err}");
+    assert!(inst.is_gone(), "{:?}", inst.shm_files());
+    // A root without the management segment is no instance either.
+    inst.create_root().unwrap();
+    let err = Bus::join(&inst, NodeKind::Replay, Duration::from_secs(5))
+        .err()
+        .unwrap();
+    assert!(matches!(err, BusError::NoInstance { .. }), "{err}");
+    assert!(inst.shm_files().is_empty());
+    inst.remove().unwrap();
+}
+
+#[test]
+fn no_file_of_an_instance_is_open_to_group_or_others() {
+    use std::os::unix::fs::PermissionsExt;
+    let inst = instance();
+    {
+        let (_sup, announcement) = Bus::create_instance(&inst, 1, TickMode::Lockstep).unwrap();
+        join_while_serving(&inst, &announcement, NodeKind::Lidar).unwrap();
+        let files = inst.shm_files();
+        assert!(!files.is_empty());
+        for f in files {
+            let mode = std::fs::metadata(&f).unwrap().permissions().mode();
+            assert_eq!(mode & 0o077, 0, "{} has mode {mode:o}", f.display());
+        }
+        let root = std::fs::metadata(&inst.root).unwrap().permissions().mode();
+        assert_eq!(root & 0o777, 0o700);
+    }
     inst.remove().unwrap();
 }
 
@@ -128,4 +166,25 @@ fn two_instances_do_not_see_each_other() {
     }
     a.remove().unwrap();
     b.remove().unwrap();
+}
+
+#[test]
+fn a_join_is_refused_when_a_file_of_the_instance_is_open_to_others() {
+    use std::os::unix::fs::PermissionsExt;
+    let inst = instance();
+    {
+        let (_sup, announcement) = Bus::create_instance(&inst, 1, TickMode::Lockstep).unwrap();
+        // What iceoryx2 would make were the private management segment not found.
+        let planted = format!("/dev/shm/{}planted.global_mgmt", inst.prefix);
+        std::fs::write(&planted, b"").unwrap();
+        std::fs::set_permissions(&planted, std::fs::Permissions::from_mode(0o666)).unwrap();
+        let err =
+            join_while_serving(&inst, &announcement, NodeKind::Lidar).expect_err("must be refused");
+        let text = err.to_string();
+        assert!(
+            text.contains(&planted) && text.contains("mode 0666"),
+            "{text}"
+        );
+    }
+    inst.remove().unwrap();
 }

@@ -92,6 +92,14 @@ setup failure)."
         #[arg(long, default_value_t = 15)]
         band_every: usize,
     },
+    /// Remove what killed runs left (instance roots in the run directory, /dev/shm
+    /// files) whose supervisor is gone; a running group's instance is never touched.
+    /// Exit 0, or 2 when the run directory is refused or a removal failed.
+    Clean {
+        /// Only list what would be removed.
+        #[arg(long)]
+        dry_run: bool,
+    },
     /// Run one node of a process group (started by `aisle run`, not by hand).
     #[command(hide = true)]
     Node(NodeCmd),
@@ -314,6 +322,7 @@ pub fn main() -> ExitCode {
             init_logging("warn");
             records::render(&file, &output, pixels_per_metre, band_every)
         }
+        Command::Clean { dry_run } => crate::clean::clean(dry_run),
         Command::Run(args) => {
             init_logging("info");
             run(&args.into())

@@ -12,12 +12,14 @@
 //! - [`check`]: validation of every file in `config/`.
 //! - [`exit`]: the exit codes every subcommand follows.
 //! - [`collisions`]: collision events (body, time) from ground truth.
+//! - [`clean`]: `aisle clean` and the sweep of stale instances before a run.
 //! - [`nodes`]: `aisle node <name>`, which runs one process's node adapter.
 //! - [`records`]: `aisle replay`, `profile` and `render` of MCAP recordings.
 //! - [`replay_check`]: `aisle replay --check`, the mapper and controller against a recording.
 
 pub mod budgets;
 pub mod check;
+pub mod clean;
 pub mod cli;
 pub mod collisions;
 pub mod exit;

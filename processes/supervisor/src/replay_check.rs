@@ -156,7 +156,7 @@ pub fn replay_into_fresh_group(
 ) -> anyhow::Result<LockstepSummary> {
     let file = RecordFile::open(file_path)?;
     let meta = file.run_metadata();
-    let base = crate::session::run_base_dir();
+    let base = crate::session::run_base_dir()?;
     let instance = Instance::unique(&base);
     let _extracted;
     let config_dir = match config_dir {
@@ -216,7 +216,6 @@ pub fn replay_into_fresh_group(
             group.spawn(kind, false).map_err(|e| anyhow!(e))?;
         }
         wait_ready(nodes, &mut group, &info, &heartbeats)?;
-        instance.restrict_shm_permissions();
         let summary = replay_lockstep(&mut ports, &file, &opts, &mut || gone(&mut group));
         group.stop(GRACE);
         Ok(summary?)

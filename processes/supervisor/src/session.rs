@@ -59,18 +59,11 @@ pub struct RunOutcome {
     pub report: RunReport,
 }
 
-/// Where instances live: `$AISLE_RUN_DIR`, else `<tmp>/aisle` (`/tmp/aisle` when the
-/// temporary directory's path is too long for iceoryx2's socket paths).
-pub(crate) fn run_base_dir() -> PathBuf {
-    if let Some(d) = std::env::var_os("AISLE_RUN_DIR") {
-        return PathBuf::from(d);
-    }
-    let t = std::env::temp_dir().join("aisle");
-    if t.as_os_str().len() <= 24 {
-        t
-    } else {
-        PathBuf::from("/tmp/aisle")
-    }
+/// Where instances live: `$AISLE_RUN_DIR`, else `<tmp>/aisle-<uid>`, created 0700 if
+/// missing; refused (naming the variable, or the path, its owner and mode) when it is
+/// not absolute or other users could write or swap it (`aisle_bus::run_dir`).
+pub(crate) fn run_base_dir() -> anyhow::Result<PathBuf> {
+    Ok(aisle_bus::run_dir::run_dir()?)
 }
 
 /// How long the children get to stop before they are killed.
@@ -105,7 +98,10 @@ impl From<anyhow::Error> for RunAborted {
 /// Runs the mission; `Err` only when the group could not be run at all.
 pub fn run(opts: &RunOptions) -> anyhow::Result<RunOutcome> {
     let config = RunConfig::load(opts)?;
-    let instance = Instance::unique(&run_base_dir());
+    let base = run_base_dir()?;
+    // What a killed run left is removed before this one adds its own.
+    crate::clean::sweep_before_run(&base);
+    let instance = Instance::unique(&base);
     tracing::info!(
         "instance --prefix {} --root {}",
         instance.prefix,

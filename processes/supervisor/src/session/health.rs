@@ -6,7 +6,7 @@ use super::retained_state::RetainedState;
 use super::{POLL, RunAborted, Session};
 use crate::launch::{ProcessGroup, describe};
 use crate::restart::{RestartBook, RestartConfig};
-use aisle_bus::{Bus, BusError, Instance, Publisher, Stamp, Subscriber, WaitOutcome};
+use aisle_bus::{Bus, BusError, Publisher, Stamp, Subscriber, WaitOutcome};
 use aisle_messages::{
     ControllerGoal, GroupMembers, Heartbeat, InstanceInfo, MapperControl, NodeKind, NodeState,
     SimCommand, SimCommandKind, TickMode, write_name,
@@ -55,8 +55,6 @@ pub(super) struct NodeHealth {
     /// The stamp of the newest tick, for what the supervisor sends between ticks.
     pub stamp: Stamp,
     pub started: Instant,
-    pub instance: Instance,
-    pub last_hygiene: Instant,
 }
 
 impl NodeHealth {
@@ -238,8 +236,7 @@ impl NodeHealth {
         Ok(())
     }
 
-    /// Connects the supervisor's state publishers to nodes that (re)joined, and keeps
-    /// the segments of new nodes private.
+    /// Connects the supervisor's state publishers to nodes that (re)joined.
     fn connect_joiners(&mut self) -> Result<(), RunAborted> {
         self.info.update_connections()?;
         self.sim_command.update_connections()?;
@@ -247,11 +244,6 @@ impl NodeHealth {
         self.mapper_control.update_connections()?;
         self.members.update_connections()?;
         self.retained.update_connections()?;
-        // New nodes (restarts) create new segments: keep them private, twice a second.
-        if self.last_hygiene.elapsed() > Duration::from_millis(500) {
-            self.last_hygiene = Instant::now();
-            self.instance.restrict_shm_permissions();
-        }
         Ok(())
     }
 
@@ -360,7 +352,6 @@ impl Session {
         }
         self.health.publish_members()?;
         self.health.running = true;
-        self.health.instance.restrict_shm_permissions();
         tracing::info!(
             "all {} nodes ready after {:.2} s",
             self.health.ready.len(),

@@ -97,8 +97,6 @@ impl Session {
             command_id: 0,
             stamp: aisle_bus::Stamp::default(),
             started: now,
-            instance: instance.clone(),
-            last_hygiene: now,
         };
         Ok(Session {
             ports,
