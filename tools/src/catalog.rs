@@ -6,9 +6,9 @@
 
 use aisle_messages::topics::{self, TopicInfo};
 use aisle_messages::{
-    ControllerBand, ControllerGoal, Heartbeat, InstanceInfo, MapperControl, MissionStatus,
-    NodeKind, OccupancyGrid, PlanRequest, PlanResponse, PointCloud, RobotState, SimCommand,
-    SimState, Tick, TickDone, Trajectory, WorldTruth,
+    ControllerBand, ControllerGoal, GroupMembers, Heartbeat, InstanceInfo, MapperControl,
+    MissionStatus, NodeKind, OccupancyGrid, PlanRequest, PlanResponse, PointCloud, RobotState,
+    SimCommand, SimState, Tick, TickDone, Trajectory, WorldTruth,
 };
 use aisle_node::Graph;
 use std::sync::LazyLock;
@@ -89,8 +89,9 @@ pub fn layout_hash(type_name: &str) -> u64 {
     h
 }
 
-const MESSAGE_TYPES: [&str; 17] = [
+const MESSAGE_TYPES: [&str; 18] = [
     InstanceInfo::TYPE_NAME,
+    GroupMembers::TYPE_NAME,
     Tick::TYPE_NAME,
     TickDone::TYPE_NAME,
     Heartbeat::TYPE_NAME,

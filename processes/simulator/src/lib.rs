@@ -25,6 +25,7 @@ pub mod collision;
 mod error;
 pub mod kinematics;
 pub mod node;
+mod sim_state;
 pub mod timeline;
 pub mod world;
 

@@ -1,0 +1,165 @@
+//! The simulator's resumable state on the bus: `SimState` written from a world
+//! snapshot every tick, and read back by a restarted simulator, every float copied and
+//! none recomputed, so a lockstep run goes on bit for bit. Also what the simulator has
+//! consumed of its inputs ([`Applied`]), which is part of that state.
+
+use crate::World;
+use crate::kinematics::{Twist, WheelSpeeds};
+use crate::timeline::{CommandTimeline, TimedCommand};
+use crate::world::{Carried, RobotState as WorldRobot, WorldSnapshot};
+use aisle_bus::{Bus, NodeError, Publisher, Stamp, WaitOutcome};
+use aisle_messages::{MAX_BODIES, SimState, Trajectory, topics};
+use std::time::Duration;
+
+/// How long a restarted simulator waits for its published state.
+const RESUME_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// What the simulator has consumed so far (part of its resumable state).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Applied {
+    pub command_id: u64,
+    pub trajectory: (u64, u64),
+    /// The tick stamped on the last `Stop` (u64::MAX: none): a trajectory of that tick
+    /// or older was computed before the stop and must not start the robot again.
+    pub stop_tick: u64,
+}
+
+impl Default for Applied {
+    fn default() -> Self {
+        Applied {
+            command_id: 0,
+            trajectory: (0, 0),
+            stop_tick: u64::MAX,
+        }
+    }
+}
+
+impl Applied {
+    pub(crate) fn drives(&self, traj: &Trajectory) -> bool {
+        self.stop_tick == u64::MAX || traj.header.tick > self.stop_tick
+    }
+}
+
+/// A restarted simulator reads its last `SimState` back (kept by the supervisor) and
+/// resumes at that tick; returns the tick and what it had consumed.
+pub(crate) fn resume(bus: &Bus, world: &mut World) -> Result<(u64, Applied), NodeError> {
+    let own = bus.subscriber(topics::SIM_STATE)?;
+    let (outcome, sample) = own.wait_for(RESUME_TIMEOUT, |_| true, || {})?;
+    let (WaitOutcome::Matched, Some(s)) = (outcome, sample) else {
+        return Err(NodeError::Protocol(
+            "simulator: restarted, but no published state to resume from".into(),
+        ));
+    };
+    let mut newest = *s;
+    drop(s);
+    while let Some(s) = own.receive()? {
+        newest = *s;
+    }
+    restore(world, &newest)?;
+    let k = newest.next_tick;
+    tracing::warn!(
+        "simulator: resumed at tick {k} (t = {:.1} s)",
+        world.time_ns() as f64 * 1e-9
+    );
+    let applied = Applied {
+        command_id: newest.last_command_id,
+        trajectory: (newest.last_trajectory_tick, newest.last_trajectory_seq),
+        stop_tick: newest.last_stop_tick,
+    };
+    Ok((k, applied))
+}
+
+pub(crate) fn publish_sim_state(
+    port: &mut Publisher<SimState>,
+    world: &World,
+    stamp: Stamp,
+    applied: Applied,
+) -> Result<(), NodeError> {
+    let snap = world.snapshot();
+    port.publish(stamp, |m| {
+        m.next_tick = stamp.tick;
+        m.time_ns = snap.time_ns;
+        m.pose = snap.robot.pose.into();
+        m.twist = [snap.robot.twist.v, snap.robot.twist.w];
+        m.wheels = [snap.robot.wheels.left, snap.robot.wheels.right];
+        m.watchdog_stopped = snap.robot.watchdog_stopped as u8;
+        m.wheels_clamped = snap.robot.wheels_clamped as u8;
+        match snap.carried {
+            Some(c) => {
+                m.carried_body = c.body as i32;
+                m.carried_offset = c.offset.into();
+            }
+            None => m.carried_body = -1,
+        }
+        m.collisions = snap.collisions;
+        m.min_clearance = snap.min_clearance;
+        m.last_command_id = applied.command_id;
+        m.last_trajectory_tick = applied.trajectory.0;
+        m.last_trajectory_seq = applied.trajectory.1;
+        m.last_stop_tick = applied.stop_tick;
+        m.bodies_len = snap.body_poses.len() as u32;
+        for (dst, (p, c)) in m
+            .body_poses
+            .iter_mut()
+            .zip(m.in_contact.iter_mut())
+            .zip(snap.body_poses.iter().zip(&snap.in_contact))
+        {
+            *dst.0 = (*p).into();
+            *dst.1 = *c as u8;
+        }
+        let entries = snap.timeline.commands();
+        m.timeline_len = entries.len() as u32;
+        m.timeline_start_ns = snap.timeline.start_ns();
+        m.timeline_expiry_ns = snap.timeline.expiry_ns();
+        for (dst, e) in m.timeline.iter_mut().zip(entries) {
+            dst.offset_ns = e.offset_ns;
+            dst.v = e.twist.v;
+            dst.w = e.twist.w;
+        }
+    })?;
+    Ok(())
+}
+
+/// Puts `world` back into the state `m` describes.
+fn restore(world: &mut World, m: &SimState) -> Result<(), NodeError> {
+    let n = (m.bodies_len as usize).min(MAX_BODIES);
+    let tl = (m.timeline_len as usize).min(m.timeline.len());
+    let entries: Vec<TimedCommand> = m.timeline[..tl]
+        .iter()
+        .map(|e| TimedCommand {
+            offset_ns: e.offset_ns,
+            twist: Twist { v: e.v, w: e.w },
+        })
+        .collect();
+    let mut timeline = CommandTimeline::from_entries(m.timeline_start_ns, &entries)
+        .map_err(|e| NodeError::Protocol(format!("simulator: published timeline: {e}")))?;
+    timeline.set_expiry(m.timeline_expiry_ns);
+    let snap = WorldSnapshot {
+        time_ns: m.time_ns,
+        robot: WorldRobot {
+            pose: m.pose.into(),
+            twist: Twist {
+                v: m.twist[0],
+                w: m.twist[1],
+            },
+            wheels: WheelSpeeds {
+                left: m.wheels[0],
+                right: m.wheels[1],
+            },
+            watchdog_stopped: m.watchdog_stopped != 0,
+            wheels_clamped: m.wheels_clamped != 0,
+        },
+        carried: (m.carried_body >= 0).then(|| Carried {
+            body: m.carried_body as usize,
+            offset: m.carried_offset.into(),
+        }),
+        body_poses: m.body_poses[..n].iter().map(|p| (*p).into()).collect(),
+        in_contact: m.in_contact[..n].iter().map(|&c| c != 0).collect(),
+        collisions: m.collisions,
+        min_clearance: m.min_clearance,
+        timeline,
+    };
+    world
+        .restore(&snap)
+        .map_err(|e| NodeError::Protocol(format!("simulator: resuming: {e}")))
+}
