@@ -347,6 +347,7 @@ fn publish_state(ports: &mut Ports, world: &World, stamp: Stamp) -> Result<(), N
 
 /// Whose acknowledgements count: the supervisor's newest `GroupMembers`, or before the
 /// first one, the launch's (the recorder only when `--record` attached one).
+#[derive(Debug, Clone, Copy)]
 struct Members {
     newest: Option<u64>,
     recorded: bool,
@@ -359,10 +360,19 @@ impl Members {
             return Ok(false);
         };
         let changed = self.newest != Some(g.members);
-        if changed && self.newest.is_some() {
-            tracing::warn!("simulator: group members now {:#x}", g.members);
+        if changed {
+            let before = *self;
+            self.newest = Some(g.members);
+            for left in NodeKind::ALL
+                .into_iter()
+                .filter(|k| before.contains(*k) && !self.contains(*k))
+            {
+                tracing::warn!(
+                    "simulator: `{}` left the group; its acknowledgements are no longer awaited",
+                    left.name()
+                );
+            }
         }
-        self.newest = Some(g.members);
         Ok(changed)
     }
 

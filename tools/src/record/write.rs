@@ -89,7 +89,7 @@ impl WriterThread {
         thread
             .join()
             .map_err(|_| NodeError::Protocol("recorder: the writer thread panicked".into()))?
-            .map_err(|e| NodeError::Protocol(format!("recorder: writing {}: {e}", out.display())))
+            .map_err(|e| NodeError::Protocol(format!("writing {}: {e}", out.display())))
     }
 }
 
