@@ -124,35 +124,32 @@ fn verdict(prefix: &str, owner: Option<Owner>) -> Result<String, String> {
 
 /// Directories of this user in `run_dir` named like an instance prefix.
 fn instance_roots(run_dir: &Path) -> Vec<(String, PathBuf)> {
-    let me = euid();
-    let Ok(dir) = std::fs::read_dir(run_dir) else {
-        return Vec::new();
-    };
-    let mut v: Vec<(String, PathBuf)> = dir
-        .flatten()
-        .filter_map(|e| {
-            let name = e.file_name().into_string().ok()?;
-            let meta = std::fs::symlink_metadata(e.path()).ok()?;
-            (meta.is_dir() && meta.uid() == me && crate::instance::valid_prefix(&name))
-                .then(|| (name, e.path()))
-        })
-        .collect();
-    v.sort();
-    v
+    own_entries(run_dir, |name, meta| {
+        meta.is_dir() && crate::instance::valid_prefix(name)
+    })
 }
 
 /// Regular files of this user in `shm`, by name.
 fn own_files(shm: &Path) -> Vec<(String, PathBuf)> {
+    own_entries(shm, |_, meta| meta.is_file())
+}
+
+/// The entries of `dir` that this user owns and `keep` accepts (links not followed),
+/// sorted by name.
+fn own_entries(
+    dir: &Path,
+    keep: impl Fn(&str, &std::fs::Metadata) -> bool,
+) -> Vec<(String, PathBuf)> {
     let me = euid();
-    let Ok(dir) = std::fs::read_dir(shm) else {
+    let Ok(entries) = std::fs::read_dir(dir) else {
         return Vec::new();
     };
-    let mut v: Vec<(String, PathBuf)> = dir
+    let mut v: Vec<(String, PathBuf)> = entries
         .flatten()
         .filter_map(|e| {
             let name = e.file_name().into_string().ok()?;
             let meta = std::fs::symlink_metadata(e.path()).ok()?;
-            (meta.is_file() && meta.uid() == me).then(|| (name, e.path()))
+            (meta.uid() == me && keep(&name, &meta)).then(|| (name, e.path()))
         })
         .collect();
     v.sort();
