@@ -363,9 +363,12 @@ impl Members {
         if changed {
             let before = *self;
             self.newest = Some(g.members);
+            // The first announcement is the launch's own; only a later one can tell of
+            // a member that left.
+            let announced_before = before.newest.is_some();
             for left in NodeKind::ALL
                 .into_iter()
-                .filter(|k| before.contains(*k) && !self.contains(*k))
+                .filter(|k| announced_before && before.contains(*k) && !self.contains(*k))
             {
                 tracing::warn!(
                     "simulator: `{}` left the group; its acknowledgements are no longer awaited",
