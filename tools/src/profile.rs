@@ -57,8 +57,16 @@ pub struct Stats {
     pub deadline_misses: usize,
 }
 
+/// The one quantile definition of aisle (`aisle run`'s table and `aisle profile`
+/// alike): nearest rank, the smallest sample with at least `p`·n samples at or below
+/// it (p99 of 100 samples is the 99th smallest). `sorted` must be sorted and not empty.
+pub fn nearest_rank(sorted: &[u64], p: f64) -> u64 {
+    let n = sorted.len();
+    sorted[((p * n as f64).ceil() as usize).clamp(1, n) - 1]
+}
+
 impl Stats {
-    /// Nearest-rank percentiles; `None` for an empty series.
+    /// Nearest-rank percentiles ([`nearest_rank`]); `None` for an empty series.
     pub fn of(values: &[u64], deadline_ns: u64) -> Option<Stats> {
         if values.is_empty() {
             return None;
@@ -66,7 +74,7 @@ impl Stats {
         let mut v = values.to_vec();
         v.sort_unstable();
         let n = v.len();
-        let rank = |p: f64| v[((p * n as f64).ceil() as usize).clamp(1, n) - 1];
+        let rank = |p: f64| nearest_rank(&v, p);
         let mean = v.iter().map(|&x| x as f64).sum::<f64>() / n as f64;
         let var = v.iter().map(|&x| (x as f64 - mean).powi(2)).sum::<f64>() / n as f64;
         Some(Stats {

@@ -121,7 +121,8 @@ impl LatencyBook {
             }
             let mut s = v.clone();
             s.sort_unstable();
-            let pick = |q: f64| s[((s.len() - 1) as f64 * q).round() as usize] as f64 / 1e6;
+            // The same quantile as `aisle profile` computes from a record.
+            let pick = |q: f64| aisle_tools::profile::nearest_rank(&s, q) as f64 / 1e6;
             let mean = s.iter().map(|&x| x as f64).sum::<f64>() / s.len() as f64;
             let var = s.iter().map(|&x| (x as f64 - mean).powi(2)).sum::<f64>() / s.len() as f64;
             let budget_ms = budgets.of(stage).unwrap_or(f64::INFINITY);
@@ -185,7 +186,15 @@ mod tests {
         assert_eq!(rows.len(), 1);
         let r = &rows[0];
         assert_eq!(r.samples, 100);
-        assert!((r.p50_ms - 5.1).abs() < 0.11, "{}", r.p50_ms);
+        // Nearest rank, as `aisle profile` computes it: the 50th and 99th of 100.
+        assert_eq!((r.p50_ms, r.p99_ms), (5.0, 9.9));
+        let samples: Vec<u64> = (1..=100u64).map(|i| i * 100_000).collect();
+        let s = aisle_tools::profile::Stats::of(&samples, 2_000_000).unwrap();
+        assert_eq!(
+            (s.p50 as f64 / 1e6, s.p99 as f64 / 1e6),
+            (r.p50_ms, r.p99_ms)
+        );
+        assert_eq!(s.deadline_misses, r.misses);
         assert!((r.max_ms - 10.0).abs() < 1e-9);
         assert_eq!(r.misses, 80, "samples above 2 ms");
         assert!(format_table(&rows).contains("lidar"));
