@@ -397,8 +397,13 @@ message!(
 );
 
 impl GroupMembers {
+    /// The bit of `kind` in `members`: the one definition of the layout.
+    pub fn bit(kind: NodeKind) -> u64 {
+        1 << kind as u32
+    }
+
     pub fn contains(&self, kind: NodeKind) -> bool {
-        self.members & (1 << kind as u32) != 0
+        self.members & Self::bit(kind) != 0
     }
 }
 

@@ -381,7 +381,7 @@ impl Members {
 
     fn contains(&self, kind: NodeKind) -> bool {
         match self.newest {
-            Some(m) => m & (1 << kind as u32) != 0,
+            Some(m) => m & GroupMembers::bit(kind) != 0,
             None => kind != NodeKind::Recorder || self.recorded,
         }
     }

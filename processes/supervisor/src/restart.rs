@@ -1,7 +1,7 @@
 //! Restart policy (`config/restart.toml`) and the count of restarts against it.
 //! Pure bookkeeping: it is told when a node died and answers whether it may restart.
 
-use aisle_config::{InvalidKey, Validate};
+use aisle_config::{InvalidKey, Validate, checks};
 use aisle_messages::NodeKind;
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -54,18 +54,6 @@ pub struct RestartConfig {
     pub node: BTreeMap<String, PolicyOverride>,
 }
 
-/// `value` must be finite and at least `min` seconds.
-fn at_least(key: String, value: f64, min: f64) -> Result<(), InvalidKey> {
-    if value.is_finite() && value >= min {
-        Ok(())
-    } else {
-        Err(InvalidKey::new(
-            key,
-            format!("must be at least {min} s, got {value}"),
-        ))
-    }
-}
-
 impl Validate for RestartConfig {
     fn validate(&self) -> Result<(), InvalidKey> {
         if let Some(name) = self
@@ -94,13 +82,13 @@ impl Validate for RestartConfig {
                     format!("must be a positive number of seconds, got {}", p.window_s),
                 ));
             }
-            at_least(key("heartbeat_timeout_s"), p.heartbeat_timeout_s, 0.5)?;
-            at_least(
-                key("realtime_heartbeat_timeout_s"),
+            checks::at_least(&key("heartbeat_timeout_s"), p.heartbeat_timeout_s, 0.5)?;
+            checks::at_least(
+                &key("realtime_heartbeat_timeout_s"),
                 p.realtime_heartbeat_timeout_s,
                 MIN_REALTIME_TIMEOUT_S,
             )?;
-            at_least(key("start_timeout_s"), p.start_timeout_s, 1.0)?;
+            checks::at_least(&key("start_timeout_s"), p.start_timeout_s, 1.0)?;
         }
         Ok(())
     }

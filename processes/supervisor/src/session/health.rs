@@ -230,7 +230,7 @@ impl NodeHealth {
             .expected
             .iter()
             .chain([NodeKind::Supervisor].iter())
-            .fold(0u64, |m, k| m | 1 << (*k as u32));
+            .fold(0, |m, k| m | GroupMembers::bit(*k));
         self.members
             .publish(aisle_bus::Stamp::default(), |m| m.members = members)?;
         Ok(())
