@@ -14,7 +14,16 @@ type Invalid<'a> = dyn Fn(&str, String) -> ConfigError + 'a;
 #[serde(deny_unknown_fields)]
 pub struct LegSpec {
     pub name: String,
+    /// The goal as the file states it; a leg that approaches a body may leave it out.
+    #[serde(rename = "goal")]
+    pub goal_given: Option<[f64; 3]>,
+    /// The goal the leg drives to (x, y, heading), resolved by [`MissionConfig::load`]:
+    /// the stated goal, or the approached body's centre.
+    #[serde(skip)]
     pub goal: [f64; 3],
+    /// No heading was stated: the planner chooses it (the side a rack is entered from).
+    #[serde(skip)]
+    pub free_heading: bool,
     #[serde(default)]
     pub rotate: bool,
     pub carry: Option<String>,
@@ -68,7 +77,9 @@ impl MissionConfig {
         if cfg.leg.is_empty() {
             return Err(bad("leg", "the mission has no legs".into()));
         }
-        for (i, leg) in cfg.leg.iter().enumerate() {
+        let mut cfg = cfg;
+        for (i, leg) in cfg.leg.iter_mut().enumerate() {
+            leg.resolve_goal(i, scene, &bad)?;
             leg.check(i, scene, &bad)?;
         }
         Ok(cfg)
@@ -151,6 +162,30 @@ impl MissionConfig {
 }
 
 impl LegSpec {
+    /// Fills [`LegSpec::goal`]: the stated goal, else (an approach leg) the approached
+    /// body's centre with the heading left to the planner.
+    fn resolve_goal(&mut self, i: usize, scene: &Scene, bad: &Invalid) -> Result<(), ConfigError> {
+        if let Some(goal) = self.goal_given {
+            self.goal = goal;
+            self.free_heading = false;
+            return Ok(());
+        }
+        let body = self.approach.as_deref().and_then(|n| scene.body(n));
+        match body {
+            Some((_, b)) => {
+                self.goal = [b.pose.x, b.pose.y, b.pose.theta];
+                self.free_heading = true;
+                Ok(())
+            }
+            None if self.approach.is_some() => Ok(()), // named in `check`
+            None => Err(bad(
+                &format!("leg[{i}].goal"),
+                "missing: only a leg that approaches a body (`approach`) may leave its goal out"
+                    .into(),
+            )),
+        }
+    }
+
     /// Leg `i` (0-based) against the scene: a finite goal, bodies that exist and can
     /// move, and no contradictory options.
     fn check(&self, i: usize, scene: &Scene, bad: &Invalid) -> Result<(), ConfigError> {

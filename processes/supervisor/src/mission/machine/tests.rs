@@ -16,7 +16,9 @@ fn mission() -> Mission {
         leg: vec![
             LegSpec {
                 name: "a".into(),
+                goal_given: Some([1.0, 0.0, 0.0]),
                 goal: [1.0, 0.0, 0.0],
+                free_heading: false,
                 rotate: false,
                 carry: None,
                 approach: Some("rack".into()),
@@ -24,7 +26,9 @@ fn mission() -> Mission {
             },
             LegSpec {
                 name: "b".into(),
+                goal_given: Some([1.0, 0.0, 3.0]),
                 goal: [1.0, 0.0, 3.0],
+                free_heading: false,
                 rotate: true,
                 carry: None,
                 approach: None,
@@ -32,7 +36,9 @@ fn mission() -> Mission {
             },
             LegSpec {
                 name: "c".into(),
+                goal_given: Some([2.0, 0.0, 0.0]),
                 goal: [2.0, 0.0, 0.0],
+                free_heading: false,
                 rotate: false,
                 carry: Some("rack".into()),
                 approach: None,
