@@ -48,8 +48,10 @@ wire_enum!(
     PlanStatus { Ok = 0, StartOccupied = 1, GoalOccupied = 2, NoPath = 3, Timeout = 4, InvalidRequest = 5, StartOutsideMap = 6, GoalOutsideMap = 7 }
 );
 wire_enum!(
-    /// What the controller is asked to do.
-    GoalMode { Idle = 0, Follow = 1, RotateInPlace = 2 }
+    /// What the controller is asked to do. `Straight`: drive along the line through
+    /// `target` in its heading (forwards or backwards, whichever reaches it) to `target`:
+    /// docking under a rack and leaving it.
+    GoalMode { Idle = 0, Follow = 1, RotateInPlace = 2, Straight = 3 }
 );
 wire_enum!(
     /// `Start` lets the simulator begin ticking once every process is ready.
