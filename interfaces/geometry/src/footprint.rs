@@ -58,6 +58,33 @@ impl Footprint {
         let outside = dx.max(0.0).hypot(dy.max(0.0));
         outside + dx.max(dy).min(0.0)
     }
+
+    /// Whether this rectangle placed at `at` and `other` placed at `other_at` overlap
+    /// or touch (separating-axis test on the four edge normals).
+    pub fn overlaps(&self, at: &Pose2, other: &Footprint, other_at: &Pose2) -> bool {
+        let (dx, dy) = (other_at.x - at.x, other_at.y - at.y);
+        let own = (
+            at.theta.cos(),
+            at.theta.sin(),
+            0.5 * self.length,
+            0.5 * self.width,
+        );
+        let oth = (
+            other_at.theta.cos(),
+            other_at.theta.sin(),
+            0.5 * other.length,
+            0.5 * other.width,
+        );
+        // Projected half size of rectangle (c, s, hl, hw) on the unit axis (ux, uy).
+        let half = |r: (f64, f64, f64, f64), ux: f64, uy: f64| {
+            r.2 * (r.0 * ux + r.1 * uy).abs() + r.3 * (-r.1 * ux + r.0 * uy).abs()
+        };
+        [own, oth].iter().all(|r| {
+            [(r.0, r.1), (-r.1, r.0)]
+                .iter()
+                .all(|&(ux, uy)| (dx * ux + dy * uy).abs() <= half(own, ux, uy) + half(oth, ux, uy))
+        })
+    }
 }
 
 #[cfg(test)]
@@ -75,5 +102,21 @@ mod tests {
         assert!(!f.contains(&at, 1.6, 1.0));
         let corner = f.corners(&at)[0];
         assert!((corner.0 - 0.5).abs() < 1e-12 && (corner.1 - 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn overlap_of_placed_rectangles() {
+        let leg = Footprint::new(0.05, 0.05);
+        let robot = Footprint::new(0.5, 0.4);
+        let at = Pose2::new(0.0, 0.0, 0.0);
+        // Beside the robot's long side, 0.01 m off, then touching through a corner
+        // once the robot turns.
+        assert!(!robot.overlaps(&at, &leg, &Pose2::new(0.0, 0.235, 0.0)));
+        assert!(robot.overlaps(&at, &leg, &Pose2::new(0.0, 0.22, 0.0)));
+        let turned = Pose2::new(0.0, 0.0, 0.3);
+        assert!(robot.overlaps(&turned, &leg, &Pose2::new(0.2, 0.235, 0.0)));
+        // A leg rotated by 45 degrees reaching in with its corner.
+        let diamond = Pose2::new(0.0, 0.2 + 0.035 - 0.01, std::f64::consts::FRAC_PI_4);
+        assert!(robot.overlaps(&at, &leg, &diamond));
     }
 }

@@ -14,6 +14,8 @@ pub const MAX_CLOUD_POINTS: usize = MAX_CLOUD_ROWS * MAX_CLOUD_COLS;
 /// Occupancy grids up to 1024 x 1024 cells.
 pub const MAX_GRID_SIDE: usize = 1024;
 pub const MAX_GRID_CELLS: usize = MAX_GRID_SIDE * MAX_GRID_SIDE;
+/// Parts of a docking body a plan request can name (a rack's four legs, and more).
+pub const MAX_DOCK_PARTS: usize = 8;
 /// Paths up to 4096 poses.
 pub const MAX_PATH_POSES: usize = 4096;
 /// Command timelines (and predicted poses) up to 512 entries.
@@ -45,7 +47,11 @@ wire_enum!(
 );
 wire_enum!(
     /// Why a plan request ended.
-    PlanStatus { Ok = 0, StartOccupied = 1, GoalOccupied = 2, NoPath = 3, Timeout = 4, InvalidRequest = 5, StartOutsideMap = 6, GoalOutsideMap = 7 }
+    PlanStatus { Ok = 0, StartOccupied = 1, GoalOccupied = 2, NoPath = 3, Timeout = 4, InvalidRequest = 5, StartOutsideMap = 6, GoalOutsideMap = 7, NoOpenSide = 8 }
+);
+wire_enum!(
+    /// A plan's straight move under or out of a body (`PlanRequest::dock`).
+    DockMove { None = 0, Dock = 1, Undock = 2 }
 );
 wire_enum!(
     /// What the controller is asked to do. `Straight`: drive along the line through
@@ -189,7 +195,7 @@ message!(
 
 message!(
     /// Ask the global planner for a reference path.
-    PlanRequest = "aisle.PlanRequest.v1" size 144 {
+    PlanRequest = "aisle.PlanRequest.v2" size 584 {
         header: Header,
         request_id: u64,
         start: Pose2Msg,
@@ -202,13 +208,23 @@ message!(
         max_expansions: u32,
         /// Wall-clock bound the planner enforces on top of the expansion budget.
         timeout_ms: u32,
+        /// `DockMove` code: 1 the path ends under `body` (entered straight through an
+        /// open side, the goal is its last pose), 2 it starts under `body` (leaves it
+        /// straight first), 0 neither.
+        dock: u32,
+        /// 1: the goal's heading is free (docking: the planner chooses the side).
+        free_heading: u32,
         _pad: u32,
+        /// The body the robot drives under (map frame; `valid` 0 when `dock` is 0).
+        body: RectMsg,
+        /// Its parts the robot can hit (a rack's legs), map frame; `valid` 0 ends the list.
+        parts: [RectMsg; MAX_DOCK_PARTS],
     }
 );
 
 message!(
     /// The planner's answer to the request with the same `request_id`.
-    PlanResponse = "aisle.PlanResponse.v1" size 131160 {
+    PlanResponse = "aisle.PlanResponse.v2" size 131168 {
         header: Header,
         request_id: u64,
         /// `PlanStatus` code.
@@ -217,6 +233,10 @@ message!(
         solve_ns: u64,
         path_length: f64,
         len: u32,
+        /// `DockMove` code of the straight part: 1 the poses from `split` on are the
+        /// docking move, 2 the poses up to `split` are the undocking move, 0 none.
+        straight: u32,
+        split: u32,
         _pad: u32,
         poses: [PathPoseMsg; MAX_PATH_POSES],
     }

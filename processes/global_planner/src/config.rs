@@ -60,6 +60,12 @@ pub struct PlannerConfig {
     pub smoothing_iterations: u32,
     /// How often (in expansions) the optional stop callback is asked.
     pub stop_check_interval: u32,
+    /// Docking: straight run (m) between a rack's side and the robot at the pose where
+    /// the straight move under it starts (or the move out of it ends): room to line up.
+    pub dock_run_in: f64,
+    /// Docking: clearance (m) the straight move keeps from the rack's legs and from
+    /// occupied cells (the legs leave 0.135 m beside the Jackal in the narrower opening).
+    pub dock_clearance: f64,
 }
 
 impl Default for PlannerConfig {
@@ -87,6 +93,8 @@ impl Default for PlannerConfig {
             smoothing_weight_smooth: 0.3,
             smoothing_iterations: 200,
             stop_check_interval: 256,
+            dock_run_in: 0.5,
+            dock_clearance: 0.03,
         }
     }
 }
@@ -146,6 +154,8 @@ impl Validate for PlannerConfig {
             100_000,
         )?;
         in_range("stop_check_interval", self.stop_check_interval, 1, u32::MAX)?;
+        positive("dock_run_in", self.dock_run_in)?;
+        at_least("dock_clearance", self.dock_clearance, 0.0)?;
         Ok(())
     }
 }

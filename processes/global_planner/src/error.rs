@@ -63,6 +63,9 @@ pub enum PlanErrorKind {
     Stopped,
     #[error("internal error: the found path failed its final validation")]
     ValidationFailed,
+    /// Docking: no side of the body has a clear straight way in (or out).
+    #[error("no side of the body has a clear straight way in or out")]
+    NoOpenSide,
 }
 
 /// A failed request: the reason and what the search did before giving up.

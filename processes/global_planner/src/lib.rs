@@ -35,6 +35,8 @@
 mod collision;
 pub mod config;
 mod distance_map;
+pub mod dock;
+mod docked;
 pub mod error;
 mod heuristic;
 mod model;
@@ -49,6 +51,8 @@ mod smooth;
 pub mod validate;
 
 pub use config::PlannerConfig;
+pub use dock::{DockKind, DockSite, Placed};
+pub use docked::DockedPlan;
 pub use error::{InvalidInput, PlanError, PlanErrorKind, PlanStats};
 pub use search::{Plan, PlanRequest, Planner};
 pub use validate::{PathViolation, check_turning_radius, validate_path};

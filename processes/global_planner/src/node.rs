@@ -9,12 +9,12 @@
 //! Adapter only: the search is [`crate::Planner`]; the loop around it is the node
 //! runtime's (`aisle_node::run`).
 
-use crate::{PlanErrorKind, PlanRequest, Planner, PlannerConfig};
+use crate::{DockKind, DockSite, Placed, PlanErrorKind, PlanRequest, Planner, PlannerConfig};
 use aisle_bus::{NodeArgs, NodeError, Stamp, clock};
 use aisle_geometry::{Footprint, OCCUPIED_DETECTED, Pose2};
 use aisle_messages::{
-    GridCopy, MAX_PATH_POSES, NodeKind, OccupancyGrid, PlanRequest as PlanRequestMsg, PlanResponse,
-    PlanStatus, StageStatus, Topic, topics,
+    DockMove, GridCopy, MAX_PATH_POSES, NodeKind, OccupancyGrid, PlanRequest as PlanRequestMsg,
+    PlanResponse, PlanStatus, RectMsg, StageStatus, Topic, topics,
 };
 use aisle_node::{Cycle, Io, RunContext, Stage};
 use std::time::Duration;
@@ -44,6 +44,7 @@ fn status_of(kind: &PlanErrorKind) -> PlanStatus {
         PlanErrorKind::GoalOutsideMap => PlanStatus::GoalOutsideMap,
         PlanErrorKind::NoPath | PlanErrorKind::ValidationFailed => PlanStatus::NoPath,
         PlanErrorKind::BudgetExhausted | PlanErrorKind::Stopped => PlanStatus::Timeout,
+        PlanErrorKind::NoOpenSide => PlanStatus::NoOpenSide,
     }
 }
 
@@ -53,6 +54,8 @@ pub struct PlannerStage {
     /// The newest global map, and its static layer (detections cleared).
     map: GridCopy,
     static_map: GridCopy,
+    /// A docking request's parts (reused).
+    parts: Vec<Placed>,
 }
 
 impl PlannerStage {
@@ -66,6 +69,7 @@ impl PlannerStage {
             planner,
             map: GridCopy::default(),
             static_map: GridCopy::default(),
+            parts: Vec::with_capacity(aisle_messages::MAX_DOCK_PARTS),
         })
     }
 
@@ -85,12 +89,35 @@ impl PlannerStage {
     }
 }
 
+/// The body and parts of a docking request, in `parts` (reused); `None` for a plain one.
+fn site_of<'p>(req: &PlanRequestMsg, parts: &'p mut Vec<Placed>) -> Option<DockSite<'p>> {
+    let kind = match DockMove::from_u32(req.dock)? {
+        DockMove::None => return None,
+        DockMove::Dock => DockKind::Dock,
+        DockMove::Undock => DockKind::Undock,
+    };
+    let placed = |r: &RectMsg| Placed {
+        pose: Pose2::from(r.pose),
+        footprint: Footprint::new(r.length, r.width),
+    };
+    parts.clear();
+    parts.extend(req.parts.iter().take_while(|r| r.valid != 0).map(placed));
+    Some(DockSite {
+        kind,
+        body: placed(&req.body),
+        parts,
+        free_heading: req.free_heading != 0,
+    })
+}
+
 fn fill_response(m: &mut PlanResponse, req: &PlanRequestMsg, result: &PlanResult, solve_ns: u64) {
     m.request_id = req.request_id;
     m.solve_ns = solve_ns;
     match result {
         Ok(plan) if plan.path.len() <= MAX_PATH_POSES => {
             m.status = PlanStatus::Ok as u32;
+            m.straight = plan.straight as u32;
+            m.split = plan.split as u32;
             m.expansions = plan.stats.expansions;
             m.path_length = plan.stats.path_length;
             m.len = plan.path.len() as u32;
@@ -110,7 +137,15 @@ fn fill_response(m: &mut PlanResponse, req: &PlanRequestMsg, result: &PlanResult
     }
 }
 
-type PlanResult = Result<crate::Plan, crate::PlanError>;
+/// A plan as the response carries it: the path, its straight part, the search's stats.
+struct Answer {
+    path: Vec<aisle_geometry::PathPose>,
+    straight: DockMove,
+    split: usize,
+    stats: crate::PlanStats,
+}
+
+type PlanResult = Result<Answer, crate::PlanError>;
 
 impl Stage for PlannerStage {
     const KIND: NodeKind = NodeKind::GlobalPlanner;
@@ -153,11 +188,34 @@ impl Stage for PlannerStage {
         let view = layer
             .view()
             .map_err(|e| NodeError::Protocol(format!("global_planner: map: {e}")))?;
-        let result = self.planner.plan_with_stop(&request, &view, &mut || {
+        let mut stop = || {
             // Asked every few hundred expansions: a long search is not a hang.
             io.keep_alive();
             clock::monotonic_ns() > deadline
-        });
+        };
+        let result = match site_of(&req, &mut self.parts) {
+            None => self
+                .planner
+                .plan_with_stop(&request, &view, &mut stop)
+                .map(|p| Answer {
+                    path: p.path,
+                    straight: DockMove::None,
+                    split: 0,
+                    stats: p.stats,
+                }),
+            Some(site) => self
+                .planner
+                .plan_docked(&request, &site, &view, &mut stop)
+                .map(|p| Answer {
+                    path: p.path,
+                    straight: match p.kind {
+                        DockKind::Dock => DockMove::Dock,
+                        DockKind::Undock => DockMove::Undock,
+                    },
+                    split: p.split,
+                    stats: p.stats,
+                }),
+        };
         let solve_ns = clock::monotonic_ns() - started;
         io.publish(topics::PLAN_RESPONSE, Stamp::of(&req.header), |m| {
             fill_response(m, &req, &result, solve_ns)

@@ -62,6 +62,8 @@ pub struct Planner {
     dm: DistanceMap,
     heur: GridHeuristic,
     buf: Buffers,
+    /// The map with a docking body marked occupied (`docked.rs`), reused.
+    pub(crate) dock_scratch: Vec<u8>,
 }
 
 impl Planner {
@@ -73,6 +75,7 @@ impl Planner {
             dm: DistanceMap::default(),
             heur: GridHeuristic::default(),
             buf: Buffers::default(),
+            dock_scratch: Vec::new(),
         })
     }
 

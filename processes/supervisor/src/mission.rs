@@ -13,5 +13,5 @@ mod events;
 mod machine;
 
 pub use config::{LegSpec, MissionConfig};
-pub use events::{Action, ControllerReport, PlanFailure};
+pub use events::{Action, ControllerReport, Dock, DockBody, PlanFailure, Planned};
 pub use machine::{Footprints, LegResult, Mission, NamedBody};

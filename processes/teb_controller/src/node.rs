@@ -82,6 +82,7 @@ fn goal_of(msg: &ControllerGoal) -> Option<Result<Goal, String>> {
         Some(GoalMode::RotateInPlace) => Mode::RotateInPlace {
             target_heading: msg.target.theta,
         },
+        Some(GoalMode::Straight) => return Some(Err("straight moves are not built yet".into())),
         None => return Some(Err(format!("unknown goal mode {}", msg.mode))),
     };
     let n = (msg.len as usize).min(msg.reference.len());

@@ -4,6 +4,46 @@
 
 use aisle_geometry::{Footprint, PathPose, Pose2};
 
+/// A body the robot drives under or out of, in the map frame: its footprint and the
+/// parts of it the robot can hit (a rack's legs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DockBody {
+    pub pose: Pose2,
+    pub footprint: Footprint,
+    pub parts: Vec<(Pose2, Footprint)>,
+}
+
+/// The straight move a plan starts or ends with.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Dock {
+    /// End under `body` (the goal), entering straight through an open side; with a
+    /// free heading the planner chooses the side.
+    Into { body: DockBody, free_heading: bool },
+    /// Start by leaving `body` straight, forwards or backwards.
+    OutOf { body: DockBody },
+}
+
+/// A planned path and where its straight move is.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Planned {
+    pub path: Vec<PathPose>,
+    /// `path[split..]` is the move under the body (`Some(Dock::Into)` was asked).
+    pub dock_from: Option<usize>,
+    /// `path[..=split]` is the move out of the body.
+    pub undock_to: Option<usize>,
+}
+
+impl Planned {
+    /// A path without straight moves.
+    pub fn plain(path: Vec<PathPose>) -> Planned {
+        Planned {
+            path,
+            dock_from: None,
+            undock_to: None,
+        }
+    }
+}
+
 /// What the supervisor should do.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Action {
@@ -13,9 +53,19 @@ pub enum Action {
         footprint: Footprint,
         margin: f64,
         use_detections: bool,
+        dock: Option<Dock>,
     },
     Follow {
         reference: Vec<PathPose>,
+        goal: Pose2,
+        footprint: Footprint,
+        margin: f64,
+        /// Reach the goal within these x, y, heading tolerances instead of the
+        /// mission's (the pose a docking move starts from).
+        tolerance: Option<[f64; 3]>,
+    },
+    /// Drive straight along the line through `goal` in its heading to `goal`.
+    Straight {
         goal: Pose2,
         footprint: Footprint,
         margin: f64,

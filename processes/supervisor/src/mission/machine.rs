@@ -7,7 +7,7 @@
 //! [`Action`]s. It knows nothing of the bus, of clocks or of processes.
 
 use super::config::{LegSpec, MissionConfig};
-use super::events::{Action, ControllerReport, PlanFailure};
+use super::events::{Action, ControllerReport, DockBody, PlanFailure, Planned};
 use aisle_geometry::{Footprint, PathPose, Pose2};
 use serde::{Deserialize, Serialize};
 
@@ -18,6 +18,9 @@ pub struct Footprints {
     pub alone_margin: f64,
     pub carrying: Footprint,
     pub carrying_margin: f64,
+    /// Height of the robot's collision body, m: parts of a body lower than this are
+    /// what it can hit when it drives under the body.
+    pub height: f64,
 }
 
 /// Where a body the mission names stands (from the scene), for the mapper's ignore list.
@@ -26,6 +29,36 @@ pub struct NamedBody {
     pub name: String,
     pub pose: Pose2,
     pub footprint: Footprint,
+    /// The parts the robot can hit when it drives under the body (body frame).
+    pub parts: Vec<(Pose2, Footprint)>,
+}
+
+impl NamedBody {
+    /// The body standing at `pose`, in the map frame.
+    pub fn placed_at(&self, pose: Pose2) -> DockBody {
+        DockBody {
+            pose,
+            footprint: self.footprint,
+            parts: self
+                .parts
+                .iter()
+                .map(|(p, f)| (pose.compose(p), *f))
+                .collect(),
+        }
+    }
+}
+
+/// Where a driving leg is, around its straight moves.
+#[derive(Debug, Clone, PartialEq)]
+enum Stage {
+    /// On the reference path (no straight move, or past the one out).
+    Path,
+    /// On the way to the pose the move under the body starts from; then to `under`.
+    ToDock { under: Pose2 },
+    /// Driving straight under the body.
+    Docking,
+    /// Driving straight out of the body; then `rest` of the path.
+    Undocking { rest: Vec<PathPose> },
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -64,8 +97,12 @@ pub struct Mission {
     plan_failures: u32,
     cooldown: u32,
     carrying: bool,
-    /// Where the last carried body was set down (the robot leaves from under it).
-    dropped: Option<(Pose2, Footprint)>,
+    /// The body the robot stands under (picked up next, or just set down), where it
+    /// stands: the next driving leg leaves it straight.
+    under: Option<DockBody>,
+    /// The carried body's pose relative to the robot (from the pick).
+    carried_rel: Option<Pose2>,
+    stage: Stage,
     /// While set, the leg is on its straight departure to this pose.
     departure: Option<Pose2>,
     /// The controller has a reference path for the current leg.
@@ -88,7 +125,9 @@ impl Mission {
             plan_failures: 0,
             cooldown: 0,
             carrying: false,
-            dropped: None,
+            under: None,
+            carried_rel: None,
+            stage: Stage::Path,
             departure: None,
             has_reference: false,
             failure: None,
@@ -148,7 +187,7 @@ impl Mission {
 
     fn footprint(&self) -> (Footprint, f64) {
         if self.carrying {
-            (self.footprints.carrying, self.footprints.carrying_margin)
+            (self.carrying_footprint(), self.footprints.carrying_margin)
         } else {
             (self.footprints.alone, self.footprints.alone_margin)
         }
@@ -158,23 +197,27 @@ impl Mission {
         self.bodies.iter().find(|b| b.name == name)
     }
 
+    /// The approached body where the scene puts it.
+    fn approached(&self) -> Option<DockBody> {
+        let b = self.body(self.spec().approach.as_deref()?)?;
+        Some(b.placed_at(b.pose))
+    }
+
+    /// What the mapper ignores: the body the robot is under or about to drive under
+    /// (only once the straight move begins: before, its legs are obstacles like any),
+    /// and the carried one.
     fn mapper_control(&self) -> Action {
-        let ignore = self
-            .spec()
-            .approach
-            .as_deref()
-            .and_then(|n| self.body(n))
-            .map(|b| (b.pose, b.footprint))
-            .or(self.dropped);
-        let carried = if self.carrying {
-            self.spec()
-                .carry
-                .as_deref()
-                .and_then(|n| self.body(n))
-                .map(|b| b.footprint)
-        } else {
-            None
+        let approached = match self.stage {
+            Stage::Docking => self.approached(),
+            _ if self.phase == Phase::Rotating => self.approached(),
+            _ => None,
         };
+        let ignore = self
+            .under
+            .clone()
+            .or(approached)
+            .map(|b| (b.pose, b.footprint));
+        let carried = self.carrying.then(|| self.carried_footprint()).flatten();
         Action::MapperControl { ignore, carried }
     }
 
@@ -185,15 +228,16 @@ impl Mission {
         self.plan_failures = 0;
         self.cooldown = 0;
         self.has_reference = false;
+        self.stage = Stage::Path;
         let mut actions = Vec::new();
         if let Some(body) = self.spec().carry.clone() {
-            self.carrying = true;
+            self.begin_carrying(&body, pose);
             actions.push(Action::Attach(body));
         }
-        actions.push(self.mapper_control());
-        let (footprint, margin) = self.footprint();
         if self.spec().rotate {
             self.phase = Phase::Rotating;
+            actions.push(self.mapper_control());
+            let (footprint, margin) = self.footprint();
             actions.push(Action::Rotate {
                 goal: self.goal(),
                 footprint,
@@ -201,19 +245,14 @@ impl Mission {
             });
         } else {
             self.phase = Phase::Planning;
+            actions.push(self.mapper_control());
             self.departure = self
                 .spec()
                 .depart
                 .map(|d| pose.compose(&Pose2::new(d, 0.0, 0.0)));
             // As in the seed, the first reference path of a leg is planned on the static
             // map; replans use the lidar detections too.
-            actions.push(Action::Plan {
-                start: pose,
-                goal: self.goal(),
-                footprint,
-                margin,
-                use_detections: false,
-            });
+            actions.push(self.plan_action(pose, false));
         }
         actions
     }
@@ -223,23 +262,17 @@ impl Mission {
         &mut self,
         now_s: f64,
         pose: Pose2,
-        result: Result<Vec<PathPose>, PlanFailure>,
+        result: Result<Planned, PlanFailure>,
     ) -> Vec<Action> {
         if self.phase != Phase::Planning {
             return Vec::new();
         }
-        let (footprint, margin) = self.footprint();
         match result {
-            Ok(reference) => {
+            Ok(planned) => {
                 self.phase = Phase::Driving;
                 self.has_reference = true;
-                self.reference_paths.push((self.leg, reference.clone()));
-                vec![Action::Follow {
-                    reference,
-                    goal: self.goal(),
-                    footprint,
-                    margin,
-                }]
+                self.reference_paths.push((self.leg, planned.path.clone()));
+                self.drive(planned)
             }
             Err(PlanFailure(why)) => {
                 self.plan_failures += 1;
@@ -281,19 +314,16 @@ impl Mission {
         if report.reached_goal && self.departure.is_some() {
             // Out from under: now the leg proper, from here.
             self.departure = None;
+            self.under = None;
             self.phase = Phase::Planning;
             self.has_reference = false;
-            let (footprint, margin) = self.footprint();
-            return vec![Action::Plan {
-                start: pose,
-                goal: self.goal(),
-                footprint,
-                margin,
-                use_detections: false,
-            }];
+            return vec![self.mapper_control(), self.plan_action(pose, false)];
         }
         if report.reached_goal {
-            return self.finish_leg(now_s, pose);
+            return match self.stage_reached(pose) {
+                Some(actions) => actions,
+                None => self.finish_leg(now_s, pose),
+            };
         }
         if self.phase == Phase::Driving {
             // After a replan the controller gets `replan_cooldown_steps` steps on the new
@@ -326,16 +356,8 @@ impl Mission {
                         ),
                     );
                 }
-                self.phase = Phase::Planning;
                 self.cooldown = self.cfg.replan_cooldown_steps;
-                let (footprint, margin) = self.footprint();
-                return vec![Action::Plan {
-                    start: pose,
-                    goal: self.goal(),
-                    footprint,
-                    margin,
-                    use_detections: true,
-                }];
+                return self.recover(pose);
             }
         }
         Vec::new()
@@ -376,17 +398,11 @@ impl Mission {
         self.record(now_s, pose, true);
         let mut actions = Vec::new();
         if self.carrying {
-            self.carrying = false;
-            // The body stays where the robot stands, which the robot then drives out
-            // from under: tell the mapper that its legs are not obstacles there.
-            let footprint = self
-                .spec()
-                .carry
-                .as_deref()
-                .and_then(|n| self.body(n))
-                .map(|b| b.footprint);
-            self.dropped = footprint.map(|f| (pose, f));
+            self.end_carrying(pose);
             actions.push(Action::Detach);
+        } else if self.stage == Stage::Docking {
+            // Under the approached body now: the next driving leg leaves it straight.
+            self.under = self.approached();
         }
         self.leg += 1;
         if self.leg == self.cfg.leg.len() {
@@ -418,6 +434,8 @@ impl Mission {
         self.fail(now_s, pose, why)
     }
 }
+
+mod docking;
 
 #[cfg(test)]
 mod tests;

@@ -5,12 +5,12 @@
 
 use super::run_config::RunConfig;
 use super::{POLL, RunAborted, Session};
-use crate::mission::{Action, PlanFailure};
+use crate::mission::{Action, Dock, PlanFailure, Planned};
 use aisle_bus::{Stamp, clock};
 use aisle_geometry::{Footprint, PathPose, Pose2};
 use aisle_messages::{
-    GoalMode, MAX_PATH_POSES, NodeKind, PathPoseMsg, PlanRequest, PlanStatus, RectMsg,
-    SimCommandKind,
+    DockMove, GoalMode, MAX_PATH_POSES, NodeKind, PathPoseMsg, PlanRequest, PlanResponse,
+    PlanStatus, RectMsg, SimCommandKind,
 };
 use anyhow::anyhow;
 use std::collections::VecDeque;
@@ -38,16 +38,18 @@ impl Session {
                     footprint,
                     margin,
                     use_detections,
+                    dock,
                 } => {
                     let t0 = Instant::now();
-                    let result = self.plan(
+                    let ask = Ask {
                         start,
                         goal,
                         footprint,
                         margin,
                         use_detections,
-                        planner_timeout,
-                    )?;
+                        dock,
+                    };
+                    let result = self.plan(&ask, planner_timeout)?;
                     *planner_ns += t0.elapsed().as_nanos() as u64;
                     queue.extend(self.mission.on_plan(self.now_s, self.pose, result));
                 }
@@ -56,29 +58,27 @@ impl Session {
                     goal,
                     footprint,
                     margin,
+                    tolerance,
                 } => {
-                    self.send_goal(
-                        GoalMode::Follow,
-                        &reference,
-                        goal,
-                        footprint,
-                        margin,
-                        config,
-                    )?;
+                    let tol = tolerance.unwrap_or(config.mission.goal_tolerance);
+                    let to = Target::new(goal, footprint, margin, tol);
+                    self.send_goal(GoalMode::Follow, &reference, &to)?;
+                }
+                Action::Straight {
+                    goal,
+                    footprint,
+                    margin,
+                } => {
+                    let to = Target::new(goal, footprint, margin, config.mission.goal_tolerance);
+                    self.send_goal(GoalMode::Straight, &[], &to)?;
                 }
                 Action::Rotate {
                     goal,
                     footprint,
                     margin,
                 } => {
-                    self.send_goal(
-                        GoalMode::RotateInPlace,
-                        &[],
-                        goal,
-                        footprint,
-                        margin,
-                        config,
-                    )?;
+                    let to = Target::new(goal, footprint, margin, config.mission.goal_tolerance);
+                    self.send_goal(GoalMode::RotateInPlace, &[], &to)?;
                 }
                 Action::Attach(name) => {
                     let index = config.scene.body(&name).map_or(-1, |(i, _)| i as i32);
@@ -89,14 +89,13 @@ impl Session {
                     self.mapper_control(ignore, carried, config)?;
                 }
                 Action::Halt => {
-                    self.send_goal(
-                        GoalMode::Idle,
-                        &[],
+                    let to = Target::new(
                         self.pose,
                         config.footprints.alone,
                         0.0,
-                        config,
-                    )?;
+                        config.mission.goal_tolerance,
+                    );
+                    self.send_goal(GoalMode::Idle, &[], &to)?;
                     self.sim_command(SimCommandKind::Stop, None)?;
                 }
             }
@@ -108,22 +107,19 @@ impl Session {
     /// meanwhile is asked again. `Err` only when the run cannot go on.
     fn plan(
         &mut self,
-        start: Pose2,
-        goal: Pose2,
-        footprint: Footprint,
-        margin: f64,
-        use_detections: bool,
+        ask: &Ask,
         timeout: Duration,
-    ) -> Result<Result<Vec<PathPose>, PlanFailure>, RunAborted> {
+    ) -> Result<Result<Planned, PlanFailure>, RunAborted> {
         let stamp = self.stamp();
         let request = |m: &mut PlanRequest| {
-            m.start = start.into();
-            m.goal = goal.into();
-            m.footprint_length = footprint.length;
-            m.footprint_width = footprint.width;
-            m.margin = margin;
-            m.use_detections = use_detections as u32;
+            m.start = ask.start.into();
+            m.goal = ask.goal.into();
+            m.footprint_length = ask.footprint.length;
+            m.footprint_width = ask.footprint.width;
+            m.margin = ask.margin;
+            m.use_detections = ask.use_detections as u32;
             m.timeout_ms = timeout.as_millis() as u32;
+            fill_dock(m, ask.dock.as_ref());
         };
         let mut id = self.ports.planner.send(stamp, request)?;
         let mut started = Instant::now();
@@ -141,7 +137,7 @@ impl Session {
                             .filter_map(PathPoseMsg::to_path_pose)
                             .collect();
                         if path.len() == n && n > 0 {
-                            Ok(path)
+                            Ok(planned(path, &resp))
                         } else {
                             Err(PlanFailure(
                                 "the planner's path is empty or malformed".into(),
@@ -179,10 +175,7 @@ impl Session {
         &mut self,
         mode: GoalMode,
         reference: &[PathPose],
-        goal: Pose2,
-        footprint: Footprint,
-        margin: f64,
-        config: &RunConfig,
+        to: &Target,
     ) -> Result<(), RunAborted> {
         if reference.len() > MAX_PATH_POSES {
             return Err(RunAborted::Error(anyhow!(
@@ -192,17 +185,16 @@ impl Session {
         }
         self.goal_id += 1;
         let id = self.goal_id;
-        let tol = config.mission.goal_tolerance;
         let stamp = self.stamp();
         self.health.goal.publish(stamp, |m| {
             m.goal_id = id;
             m.mode = mode as u32;
             m.len = reference.len() as u32;
-            m.footprint_length = footprint.length;
-            m.footprint_width = footprint.width;
-            m.margin = margin;
-            m.goal_tolerance = tol;
-            m.target = goal.into();
+            m.footprint_length = to.footprint.length;
+            m.footprint_width = to.footprint.width;
+            m.margin = to.margin;
+            m.goal_tolerance = to.tolerance;
+            m.target = to.goal.into();
             for (dst, src) in m.reference.iter_mut().zip(reference) {
                 *dst = (*src).into();
             }
@@ -273,5 +265,62 @@ fn plan_status_text(s: PlanStatus) -> &'static str {
         PlanStatus::NoPath => "no path exists",
         PlanStatus::Timeout => "the search ran out of time",
         PlanStatus::InvalidRequest => "the request is invalid",
+        PlanStatus::NoOpenSide => "no side of the body has a clear straight way in or out",
     }
+}
+
+/// One plan request as the mission asked for it.
+struct Ask {
+    start: Pose2,
+    goal: Pose2,
+    footprint: Footprint,
+    margin: f64,
+    use_detections: bool,
+    dock: Option<Dock>,
+}
+
+/// A controller goal's pose, footprint, margin and tolerances.
+struct Target {
+    goal: Pose2,
+    footprint: Footprint,
+    margin: f64,
+    tolerance: [f64; 3],
+}
+
+impl Target {
+    fn new(goal: Pose2, footprint: Footprint, margin: f64, tolerance: [f64; 3]) -> Target {
+        Target {
+            goal,
+            footprint,
+            margin,
+            tolerance,
+        }
+    }
+}
+
+/// The request's docking fields: the body and its parts, or nothing.
+fn fill_dock(m: &mut PlanRequest, dock: Option<&Dock>) {
+    let (kind, body, free) = match dock {
+        None => return,
+        Some(Dock::Into { body, free_heading }) => (DockMove::Dock, body, *free_heading),
+        Some(Dock::OutOf { body }) => (DockMove::Undock, body, false),
+    };
+    m.dock = kind as u32;
+    m.free_heading = free as u32;
+    m.body = rect(body.pose, body.footprint);
+    for (dst, (pose, fp)) in m.parts.iter_mut().zip(&body.parts) {
+        *dst = rect(*pose, *fp);
+    }
+}
+
+/// The response's path with its straight move.
+fn planned(path: Vec<PathPose>, resp: &PlanResponse) -> Planned {
+    let split = resp.split as usize;
+    let mut p = Planned::plain(path);
+    match DockMove::from_u32(resp.straight) {
+        Some(DockMove::Dock) => p.dock_from = Some(split),
+        Some(DockMove::Undock) => p.undock_to = Some(split),
+        _ => {}
+    }
+    p
 }

@@ -59,6 +59,7 @@ impl RunConfig {
             alone_margin: f.alone.margin,
             carrying: f.carrying.footprint(),
             carrying_margin: f.carrying.margin,
+            height: robot.body.height,
         };
         let restart = aisle_config::load::<RestartConfig>(&files.restart)?;
         let graph = Graph::load_dir(&opts.config_dir)?;

@@ -11,6 +11,7 @@ use crate::launch::{LaunchSpec, ProcessGroup};
 use crate::mission::{Mission, NamedBody};
 use crate::restart::RestartBook;
 use aisle_bus::{Bus, Client, Instance, Publisher, Subscriber};
+use aisle_geometry::{Footprint, Pose2};
 use aisle_messages::{
     MissionStatus, NodeKind, PlanRequest, PlanResponse, RobotState, Tick, TickDone, Trajectory,
     WorldTruth, topics,
@@ -128,6 +129,17 @@ fn new_mission(config: &RunConfig) -> Mission {
             name: b.name.clone(),
             pose: b.pose,
             footprint: b.footprint(),
+            // What the robot can hit when it drives under the body: parts reaching
+            // below the top of its collision body (a rack's legs, not its deck).
+            parts: b
+                .parts
+                .iter()
+                .filter(|p| p.z_min() < config.footprints.height)
+                .map(|p| {
+                    let at = Pose2::new(p.center[0], p.center[1], 0.0);
+                    (at, Footprint::new(p.size[0], p.size[1]))
+                })
+                .collect(),
         })
         .collect();
     Mission::new(config.mission.clone(), config.footprints, bodies)

@@ -1,6 +1,7 @@
 //! The mission state machine against the seed sequence and its failure modes.
 
 use super::*;
+use crate::mission::events::Dock;
 use aisle_geometry::Direction;
 
 fn mission() -> Mission {
@@ -51,11 +52,13 @@ fn mission() -> Mission {
         alone_margin: 0.1,
         carrying: Footprint::new(0.9, 0.8),
         carrying_margin: 0.4,
+        height: 0.25,
     };
     let bodies = vec![NamedBody {
         name: "rack".into(),
         pose: Pose2::new(1.0, 0.0, 0.0),
         footprint: Footprint::new(0.88, 0.8),
+        parts: vec![(Pose2::new(0.4, 0.35, 0.0), Footprint::new(0.05, 0.05))],
     }];
     Mission::new(cfg, fp, bodies)
 }
@@ -80,16 +83,17 @@ fn the_seed_sequence_plans_rotates_attaches_and_detaches() {
     let mut m = mission();
     let p = Pose2::default();
     let a = m.start_leg(0.0, p);
+    // The approached rack is an obstacle until the straight move under it begins.
     assert!(matches!(
         a[0],
         Action::MapperControl {
-            ignore: Some(_),
+            ignore: None,
             carried: None
         }
     ));
     assert!(matches!(a[1], Action::Plan { use_detections: false, margin, .. } if margin == 0.1));
     assert!(matches!(
-        m.on_plan(0.0, p, Ok(path()))[0],
+        m.on_plan(0.0, p, Ok(Planned::plain(path())))[0],
         Action::Follow { .. }
     ));
     assert!(m.on_controller(1.0, p, OK).is_empty());
@@ -108,7 +112,7 @@ fn the_seed_sequence_plans_rotates_attaches_and_detaches() {
         }
     ));
     assert!(matches!(a[2], Action::Plan { margin, .. } if margin == 0.4));
-    m.on_plan(3.0, p, Ok(path()));
+    m.on_plan(3.0, p, Ok(Planned::plain(path())));
     let a = m.on_controller(9.0, p, REACHED);
     assert_eq!(a[0], Action::Detach);
     assert_eq!(*a.last().unwrap(), Action::Halt);
@@ -121,7 +125,7 @@ fn infeasible_bands_replan_with_detections_then_fail_with_a_reason() {
     let mut m = mission();
     let p = Pose2::default();
     m.start_leg(0.0, p);
-    m.on_plan(0.0, p, Ok(path()));
+    m.on_plan(0.0, p, Ok(Planned::plain(path())));
     let bad = ControllerReport {
         reached_goal: false,
         exit_flag: 1,
@@ -135,7 +139,7 @@ fn infeasible_bands_replan_with_detections_then_fail_with_a_reason() {
             ..
         }
     ));
-    m.on_plan(1.0, p, Ok(path()));
+    m.on_plan(1.0, p, Ok(Planned::plain(path())));
     // Cooldown: the next infeasible report does not replan at once.
     assert!(m.on_controller(1.5, p, bad).is_empty());
     let a = m.on_controller(
@@ -148,7 +152,7 @@ fn infeasible_bands_replan_with_detections_then_fail_with_a_reason() {
         },
     );
     assert!(matches!(a[0], Action::Plan { .. }));
-    m.on_plan(2.0, p, Ok(path()));
+    m.on_plan(2.0, p, Ok(Planned::plain(path())));
     m.on_controller(2.5, p, bad);
     let a = m.on_controller(3.0, p, bad);
     assert_eq!(a, vec![Action::Halt]);
@@ -164,7 +168,7 @@ fn an_acceleration_flag_is_driven_not_replanned() {
     let mut m = mission();
     let p = Pose2::default();
     m.start_leg(0.0, p);
-    m.on_plan(0.0, p, Ok(path()));
+    m.on_plan(0.0, p, Ok(Planned::plain(path())));
     let hard = ControllerReport {
         reached_goal: false,
         exit_flag: 6,
@@ -191,7 +195,7 @@ fn a_failed_replan_keeps_the_old_reference_and_retries() {
     let mut m = mission();
     let p = Pose2::default();
     m.start_leg(0.0, p);
-    m.on_plan(0.0, p, Ok(path()));
+    m.on_plan(0.0, p, Ok(Planned::plain(path())));
     let bad = ControllerReport {
         reached_goal: false,
         exit_flag: 1,
@@ -224,7 +228,7 @@ fn a_departing_leg_drives_straight_out_first_then_plans_the_leg() {
     m.cfg.leg[2].depart = Some(1.2);
     let p = Pose2::default();
     m.start_leg(0.0, p);
-    m.on_plan(0.0, p, Ok(path()));
+    m.on_plan(0.0, p, Ok(Planned::plain(path())));
     m.on_controller(1.0, p, REACHED);
     let at = Pose2::new(1.0, 0.0, 0.5);
     let a = m.on_controller(2.0, at, REACHED);
@@ -238,16 +242,16 @@ fn a_departing_leg_drives_straight_out_first_then_plans_the_leg() {
             && (goal.y - 1.2 * 0.5f64.sin()).abs() < 1e-12
     );
     assert_eq!(goal.theta, 0.5);
-    m.on_plan(3.0, at, Ok(path()));
+    m.on_plan(3.0, at, Ok(Planned::plain(path())));
     let out = Pose2::new(2.0, 0.5, 0.5);
     let a = m.on_controller(4.0, out, REACHED);
-    assert_eq!(a.len(), 1);
+    assert_eq!(a.len(), 2);
     let Action::Plan {
         start,
         goal,
         use_detections,
         ..
-    } = a[0]
+    } = a[1]
     else {
         panic!("{a:?}")
     };
@@ -257,4 +261,110 @@ fn a_departing_leg_drives_straight_out_first_then_plans_the_leg() {
     );
     assert!(!m.is_finished());
     assert_eq!(m.results.len(), 2, "the departure is part of the leg");
+}
+
+fn poses(n: usize) -> Vec<PathPose> {
+    (0..n)
+        .map(|i| PathPose::new(Pose2::new(i as f64, 0.0, 0.0), Direction::Forward))
+        .collect()
+}
+
+#[test]
+fn a_pick_docks_straight_and_the_leg_after_the_drop_undocks_first() {
+    let mut m = mission();
+    m.cfg.leg.push(LegSpec {
+        name: "d".into(),
+        goal_given: Some([5.0, 0.0, 0.0]),
+        goal: [5.0, 0.0, 0.0],
+        free_heading: false,
+        rotate: false,
+        carry: None,
+        approach: None,
+        depart: None,
+    });
+    let p = Pose2::default();
+    let a = m.start_leg(0.0, p);
+    let Action::Plan {
+        dock: Some(Dock::Into { body, free_heading }),
+        ..
+    } = &a[1]
+    else {
+        panic!("{a:?}")
+    };
+    assert!(!free_heading);
+    // The leg, in the map frame: the rack stands at (1, 0).
+    assert_eq!(body.parts[0].0, Pose2::new(1.4, 0.35, 0.0));
+    let planned = Planned {
+        path: poses(3),
+        dock_from: Some(1),
+        undock_to: None,
+    };
+    let a = m.on_plan(0.0, p, Ok(planned));
+    let Action::Follow {
+        reference,
+        tolerance: Some(_),
+        goal,
+        ..
+    } = &a[0]
+    else {
+        panic!("{a:?}")
+    };
+    assert_eq!((reference.len(), goal.x), (2, 1.0));
+    let a = m.on_controller(1.0, p, REACHED);
+    assert!(
+        matches!(
+            a[0],
+            Action::MapperControl {
+                ignore: Some(_),
+                ..
+            }
+        ),
+        "{a:?}"
+    );
+    assert!(
+        matches!(a[1], Action::Straight { goal, .. } if goal.x == 2.0),
+        "{a:?}"
+    );
+    // Under the rack: the turn on the spot ignores it, then it is carried.
+    let a = m.on_controller(2.0, p, REACHED);
+    assert!(a.iter().any(|x| matches!(
+        x,
+        Action::MapperControl {
+            ignore: Some(_),
+            ..
+        }
+    )));
+    let a = m.on_controller(3.0, p, REACHED);
+    assert!(matches!(a[2], Action::Plan { dock: None, .. }), "{a:?}");
+    m.on_plan(3.0, p, Ok(Planned::plain(poses(2))));
+    // Set down: the next leg leaves it straight, then follows the rest.
+    let drop = Pose2::new(3.0, 0.0, 0.0);
+    let a = m.on_controller(4.0, drop, REACHED);
+    assert_eq!(a[0], Action::Detach);
+    assert!(
+        a.iter().any(|x| matches!(x, Action::Plan { dock: Some(Dock::OutOf { body }), .. } if body.pose == Pose2::new(4.0, 0.0, 0.0))),
+        "{a:?}"
+    );
+    let planned = Planned {
+        path: poses(4),
+        dock_from: None,
+        undock_to: Some(1),
+    };
+    let a = m.on_plan(4.0, drop, Ok(planned));
+    assert!(
+        matches!(a[1], Action::Straight { goal, .. } if goal.x == 1.0),
+        "{a:?}"
+    );
+    let a = m.on_controller(5.0, drop, REACHED);
+    assert!(
+        matches!(a[0], Action::MapperControl { ignore: None, .. }),
+        "{a:?}"
+    );
+    assert!(
+        matches!(&a[1], Action::Follow { reference, .. } if reference.len() == 3),
+        "{a:?}"
+    );
+    let a = m.on_controller(6.0, drop, REACHED);
+    assert_eq!(*a.last().unwrap(), Action::Halt);
+    assert!(m.succeeded());
 }

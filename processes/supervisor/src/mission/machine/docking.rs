@@ -1,0 +1,202 @@
+//! The mission's straight moves under and out of bodies: which plan to ask for (into the
+//! approached body, out of the one the robot stands under), how a plan with a straight
+//! move is driven (the path to the pose outside, then the move; or the move out, then the
+//! path), what the carried body adds to the footprint, and where a set-down body stands.
+//!
+//! Part of the pure state machine: no bus, no clocks.
+
+use super::{Mission, Phase, Stage};
+use crate::mission::events::{Action, Dock, Planned};
+use aisle_geometry::{Footprint, Pose2};
+
+/// Tolerances (along, across, heading) for the pose a docking move starts from: the
+/// straight move corrects what is left, but it has only the run-in to do so.
+const DOCK_START_TOLERANCE: [f64; 3] = [0.1, 0.06, 0.08];
+
+impl Mission {
+    /// The plan request for the current leg from `start`: with the move out of the body
+    /// the robot stands under first (unless the leg carries it, or says `depart`), else
+    /// with the move under the approached body.
+    pub(super) fn plan_action(&self, start: Pose2, use_detections: bool) -> Action {
+        let (footprint, margin) = self.footprint();
+        let dock = if let Some(body) = self.under.clone().filter(|_| self.departure.is_none()) {
+            Some(Dock::OutOf { body })
+        } else {
+            self.approached().map(|body| Dock::Into {
+                body,
+                free_heading: self.spec().free_heading,
+            })
+        };
+        Action::Plan {
+            start,
+            goal: self.goal(),
+            footprint,
+            margin,
+            use_detections,
+            dock,
+        }
+    }
+
+    /// Starts driving a fresh plan.
+    pub(super) fn drive(&mut self, planned: Planned) -> Vec<Action> {
+        let (footprint, margin) = self.footprint();
+        let mut path = planned.path;
+        if let Some(k) = planned.undock_to.filter(|&k| k < path.len()) {
+            let rest = path.split_off(k);
+            let out = rest[0].pose;
+            self.stage = Stage::Undocking { rest };
+            return vec![self.mapper_control(), straight(out, footprint, margin)];
+        }
+        if let Some(k) = planned.dock_from.filter(|&k| k + 1 < path.len()) {
+            let under = path.last().map_or(self.goal(), |p| p.pose);
+            path.truncate(k + 1);
+            let goal = path[k].pose;
+            self.stage = Stage::ToDock { under };
+            return vec![Action::Follow {
+                reference: path,
+                goal,
+                footprint,
+                margin,
+                tolerance: Some(DOCK_START_TOLERANCE),
+            }];
+        }
+        self.stage = Stage::Path;
+        vec![Action::Follow {
+            reference: path,
+            goal: self.goal(),
+            footprint,
+            margin,
+            tolerance: None,
+        }]
+    }
+
+    /// The controller reached the goal of the current stage; `None` when that is the
+    /// leg's goal.
+    pub(super) fn stage_reached(&mut self, pose: Pose2) -> Option<Vec<Action>> {
+        let (footprint, margin) = self.footprint();
+        match std::mem::replace(&mut self.stage, Stage::Path) {
+            Stage::Path => None,
+            Stage::Docking => {
+                // Kept for finish_leg, which marks the robot under the body.
+                self.stage = Stage::Docking;
+                None
+            }
+            Stage::ToDock { under } => {
+                self.stage = Stage::Docking;
+                Some(vec![
+                    self.mapper_control(),
+                    straight(under, footprint, margin),
+                ])
+            }
+            Stage::Undocking { rest } => {
+                // Out: the body is an obstacle again.
+                self.under = None;
+                let mut actions = vec![self.mapper_control()];
+                if self.approached().is_some() || rest.len() < 2 {
+                    // The leg also enters a body (or the rest is nothing): plan from here.
+                    self.phase = Phase::Planning;
+                    self.has_reference = false;
+                    actions.push(self.plan_action(pose, false));
+                } else {
+                    actions.push(Action::Follow {
+                        reference: rest,
+                        goal: self.goal(),
+                        footprint,
+                        margin,
+                        tolerance: None,
+                    });
+                }
+                Some(actions)
+            }
+        }
+    }
+
+    /// The controller stays infeasible: on a path, plan again with the detections (a
+    /// docking leg chooses its side again); on a straight move, try the move again
+    /// (something stands in the way; the replan count bounds the waiting).
+    pub(super) fn recover(&mut self, pose: Pose2) -> Vec<Action> {
+        let (footprint, margin) = self.footprint();
+        match &self.stage {
+            Stage::Docking => match self.approached() {
+                Some(_) => vec![self.redo_docking(pose, footprint, margin)],
+                None => Vec::new(),
+            },
+            Stage::Undocking { rest } => {
+                let out = rest.first().map_or(pose, |p| p.pose);
+                vec![straight(out, footprint, margin)]
+            }
+            Stage::Path | Stage::ToDock { .. } => {
+                self.phase = Phase::Planning;
+                vec![self.plan_action(pose, true)]
+            }
+        }
+    }
+
+    fn redo_docking(&self, pose: Pose2, footprint: Footprint, margin: f64) -> Action {
+        let under = self
+            .reference_paths
+            .last()
+            .and_then(|(_, p)| p.last())
+            .map_or(pose, |p| p.pose);
+        straight(under, footprint, margin)
+    }
+
+    /// The robot takes `body` (standing under it at `robot`): remember how it sits.
+    pub(super) fn begin_carrying(&mut self, body: &str, robot: Pose2) {
+        self.carrying = true;
+        let scene_pose = self.body(body).map(|b| b.pose);
+        let at = self.under.as_ref().map(|u| u.pose).or(scene_pose);
+        self.carried_rel = at.map(|b| robot.inverse().compose(&b));
+        self.under = None;
+    }
+
+    /// The robot sets the carried body down at `robot`: it stands there now, and the
+    /// next leg leaves it straight.
+    pub(super) fn end_carrying(&mut self, robot: Pose2) {
+        self.carrying = false;
+        let body = self
+            .spec()
+            .carry
+            .as_deref()
+            .and_then(|n| self.body(n))
+            .cloned();
+        self.under = match (body, self.carried_rel.take()) {
+            (Some(b), Some(rel)) => Some(b.placed_at(robot.compose(&rel))),
+            _ => None,
+        };
+    }
+
+    /// The carried body's rectangle in the robot frame, axis-aligned (a rack picked from
+    /// its long side sits across the robot).
+    pub(super) fn carried_footprint(&self) -> Option<Footprint> {
+        let name = self.spec().carry.as_deref()?;
+        let body = self.body(name)?;
+        let rel = self.carried_rel.unwrap_or_default();
+        let (c, s) = (rel.theta.cos().abs(), rel.theta.sin().abs());
+        let f = body.footprint;
+        Some(Footprint::new(
+            f.length * c + f.width * s + 2.0 * rel.x.abs(),
+            f.length * s + f.width * c + 2.0 * rel.y.abs(),
+        ))
+    }
+
+    /// The footprint while carrying: robot.toml's, grown to the carried body as it sits.
+    pub(super) fn carrying_footprint(&self) -> Footprint {
+        let configured = self.footprints.carrying;
+        match self.carried_footprint() {
+            Some(f) => Footprint::new(
+                configured.length.max(f.length),
+                configured.width.max(f.width),
+            ),
+            None => configured,
+        }
+    }
+}
+
+fn straight(goal: Pose2, footprint: Footprint, margin: f64) -> Action {
+    Action::Straight {
+        goal,
+        footprint,
+        margin,
+    }
+}
