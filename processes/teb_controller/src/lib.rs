@@ -7,6 +7,9 @@
 //! band. Outputs follow MATLAB controllerTEB: a (t, v, w) timeline, predicted poses,
 //! reached-goal and exit flag. Knows nothing of the bus (the `node` module adapts it).
 //!
+//! Docking under a rack and leaving it (`Mode::Straight`) is not optimised: a line
+//! tracker rolls the timeline out and sweeps the footprint along it (`straight.rs`).
+//!
 //! ```text
 //! let mut teb = TebController::new(aisle_config::load::<TebConfig>(Path::new("config/teb.toml"))?)?;
 //! teb.set_goal(&Goal { reference, footprint, margin: 0.1, mode: Mode::Follow, tolerance: None })?;

@@ -273,18 +273,26 @@ fn straight_moves_are_bitwise_repeatable_and_restorable() {
 
 #[test]
 fn the_optimiser_reaches_a_pre_dock_pose_within_the_tight_tolerance() {
-    // A 2 m straight reference to the pre-dock pose, the robot 0.15 m to its side.
-    let mut goal = follow(straight_path(0.0, 2.0, 0.0), ROBOT, 0.1);
-    goal.tolerance = Some(PRE_DOCK_TOLERANCE);
-    let run = super::drive(&goal, &vec![], Pose2::new(0.0, 0.15, 0.0), 30);
-    let (ex, ey, eh) = errors(&run.final_pose, &Pose2::new(2.0, 0.0, 0.0));
-    println!(
-        "TEB to a pre-dock pose: {} steps, error along {ex:.4} m, across {ey:.4} m, \
-         heading {eh:.4} rad, flags {:?}",
-        run.steps, run.flags
-    );
-    assert!(run.reached, "{:?} flags {:?}", run.final_pose, run.flags);
+    // Straight references to the pre-dock pose (2, 0, 0), the robot 0.15 m to their
+    // side, at times also turned.
+    let end = Pose2::new(2.0, 0.0, 0.0);
     let t = PRE_DOCK_TOLERANCE;
-    assert!(ex.abs() <= t[0] && ey.abs() <= t[1] && eh.abs() <= t[2]);
-    assert!(run.steps <= 12, "{} steps", run.steps);
+    for (x0, start) in [
+        (0.0, Pose2::new(0.0, 0.15, 0.0)),
+        (0.0, Pose2::new(0.0, -0.15, 0.2)),
+        (0.8, Pose2::new(0.8, 0.15, -0.1)),
+    ] {
+        let mut goal = follow(straight_path(x0, 2.0, 0.0), ROBOT, 0.1);
+        goal.tolerance = Some(PRE_DOCK_TOLERANCE);
+        let run = super::drive(&goal, &vec![], start, 30);
+        let (ex, ey, eh) = errors(&run.final_pose, &end);
+        println!(
+            "TEB to a pre-dock pose from {start:?}: {} steps, error along {ex:.4} m, \
+             across {ey:.4} m, heading {eh:.4} rad, flags {:?}",
+            run.steps, run.flags
+        );
+        assert!(run.reached, "{:?} flags {:?}", run.final_pose, run.flags);
+        assert!(ex.abs() <= t[0] && ey.abs() <= t[1] && eh.abs() <= t[2]);
+        assert!(run.steps <= 12, "{} steps", run.steps);
+    }
 }
