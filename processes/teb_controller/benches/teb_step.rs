@@ -9,6 +9,8 @@
 //! iterations and the largest constraint violation are printed, and the subproblems of
 //! every step of a 16-period closed loop. A fourth, informative case follows a 3 m
 //! radius curve (no target; the linearised kinematics used to reject most steps there).
+//! Last, a straight docking step (goal mode Straight, no optimiser): from 0.15 m off the
+//! line and 0.15 rad off its heading into the gap between a rack's four legs.
 
 use aisle_geometry::{
     CellIndex, Direction, Footprint, GridMap, OCCUPIED_DETECTED, PathPose, Pose2,
@@ -129,6 +131,7 @@ fn goal(s: &Situation) -> Goal {
         footprint: s.footprint,
         margin: s.margin,
         mode: Mode::Follow,
+        tolerance: None,
     }
 }
 
@@ -274,5 +277,67 @@ fn steps(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, steps);
+/// One docking step: the rollout and its footprint sweep against four leg cells.
+fn docking(c: &mut Criterion) {
+    let centre = Pose2::new(3.0, 1.0, 0.0);
+    let start = Pose2::new(1.5, 1.15, 0.15);
+    let mut map = local_map(&start, &[]);
+    for (sx, sy) in [(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0)] {
+        let (x, y) = (centre.x + sx * 0.415, centre.y + sy * 0.375);
+        // Every cell the 0.05 m leg touches.
+        for (dx, dy) in [
+            (-0.025, -0.025),
+            (0.0249, -0.025),
+            (-0.025, 0.0249),
+            (0.0249, 0.0249),
+        ] {
+            let cell = map.view().cell_of(x + dx, y + dy);
+            map.set(cell, OCCUPIED_DETECTED);
+        }
+    }
+    let goal = Goal {
+        reference: Vec::new(),
+        footprint: Footprint::new(0.508, 0.43),
+        margin: 0.1,
+        mode: Mode::Straight { target: centre },
+        tolerance: Some([0.02, 0.02, 0.02]),
+    };
+    let mut teb = TebController::new(TebConfig::default()).expect("valid config");
+    teb.set_goal(&goal).expect("valid goal");
+    let view = map.view();
+    let out = teb.step(start, (0.0, 0.0), 0.0, &view).expect("step");
+    println!(
+        "docking: flag {}, {} commands, {} poses",
+        out.exit_flag.code(),
+        out.commands.len(),
+        out.poses.len()
+    );
+    let mut times = Vec::with_capacity(300);
+    for _ in 0..300 {
+        let t0 = Instant::now();
+        black_box(
+            teb.step(start, (0.0, 0.0), 0.0, &view)
+                .expect("step")
+                .exit_flag,
+        );
+        times.push(t0.elapsed().as_secs_f64() * 1e3);
+    }
+    times.sort_by(f64::total_cmp);
+    println!(
+        "docking: step p50 {:.3} ms, p99 {:.3} ms (300 steps)",
+        percentile(&times, 0.5),
+        percentile(&times, 0.99)
+    );
+    c.bench_function("teb_step/straight/docking", |b| {
+        b.iter(|| {
+            black_box(
+                teb.step(start, (0.0, 0.0), 0.0, &view)
+                    .expect("step")
+                    .exit_flag,
+            )
+        })
+    });
+}
+
+criterion_group!(benches, steps, docking);
 criterion_main!(benches);

@@ -6,7 +6,9 @@
 //! radius: never more than the distance to the square cell itself, so a band that keeps
 //! the margin to the discs keeps it to the cells. Cells
 //! outside the grid are free (MATLAB's controllerTEB treats space beyond its local map
-//! so). Knows nothing of the band or of the optimiser.
+//! so). [`overlaps_occupied`] is the exact test for tight spaces: the footprint against
+//! the cell squares themselves, without the disc's extra 0.02 m at 0.1 m cells. Knows
+//! nothing of the band or of the optimiser.
 
 use aisle_geometry::{Footprint, GridView, Pose2};
 
@@ -179,6 +181,44 @@ pub(crate) fn nearest_per_sector(
     }
 }
 
+/// Whether `fp` placed at `pose` overlaps (not merely touches) an occupied cell, each
+/// cell taken as its exact square. Separating axes: the grid's two and the footprint's
+/// two.
+pub(crate) fn overlaps_occupied(map: &GridView, fp: &Footprint, pose: &Pose2) -> bool {
+    let Some((x0, x1, y0, y1)) = window(map, fp, pose, 0.0) else {
+        return false;
+    };
+    let h = 0.5 * map.resolution;
+    let (s, c) = pose.theta.sin_cos();
+    let (hl, hw) = (0.5 * fp.length, 0.5 * fp.width);
+    // Half-extents of the footprint on the grid axes, and of a cell on the footprint's.
+    let ex = hl * c.abs() + hw * s.abs() + h;
+    let ey = hl * s.abs() + hw * c.abs() + h;
+    let cell = h * (c.abs() + s.abs());
+    for iy in y0..=y1 {
+        let dy = map.origin_y + (iy as f64 + 0.5) * map.resolution - pose.y;
+        if dy.abs() >= ey {
+            continue;
+        }
+        let row = &map.cells[iy * map.width..(iy + 1) * map.width];
+        for (ix, &v) in row.iter().enumerate().take(x1 + 1).skip(x0) {
+            if v == aisle_geometry::FREE {
+                continue;
+            }
+            let dx = map.origin_x + (ix as f64 + 0.5) * map.resolution - pose.x;
+            if dx.abs() >= ex {
+                continue;
+            }
+            let lx = c * dx + s * dy;
+            let ly = -s * dx + c * dy;
+            if lx.abs() < hl + cell && ly.abs() < hw + cell {
+                return true;
+            }
+        }
+    }
+    false
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -235,5 +275,41 @@ mod tests {
         // A pose far outside the grid sees nothing.
         let far = min_clearance(&g.view(), &fp, &Pose2::new(50.0, 0.0, 0.0), 1.0);
         assert_eq!(far, 1.0);
+    }
+
+    #[test]
+    fn overlap_is_exact_against_the_cell_square() {
+        let mut g = GridMap::new_free(-2.0, -2.0, 0.1, 4.0, 4.0).unwrap();
+        // The cell [0.5, 0.6] x [0.0, 0.1].
+        let c = g.view().cell_of(0.55, 0.05);
+        g.set(c, OCCUPIED_DETECTED);
+        let v = g.view();
+        let fp = Footprint::new(1.0, 0.5);
+        // Front edge at x = 0.49 / 0.51: clear / overlapping; touching is clear.
+        assert!(!overlaps_occupied(&v, &fp, &Pose2::new(-0.01, 0.0, 0.0)));
+        assert!(overlaps_occupied(&v, &fp, &Pose2::new(0.01, 0.0, 0.0)));
+        assert!(!overlaps_occupied(&v, &fp, &Pose2::new(0.0, 0.0, 0.0)));
+        // Side edge at y = -0.01 below the cell: clear; the disc model would not say so.
+        assert!(!overlaps_occupied(&v, &fp, &Pose2::new(0.5, -0.26, 0.0)));
+        assert!(min_clearance(&v, &fp, &Pose2::new(0.5, -0.26, 0.0), 1.0) < 0.0);
+        // Turned 45 degrees: the corner region of the cell's bounding box is not overlap.
+        let sq = Footprint::new(0.2, 0.2);
+        let r = 0.1 * std::f64::consts::SQRT_2;
+        let q = std::f64::consts::FRAC_PI_4;
+        // The diamond's right vertex at x = 0.49 (just left of the cell), centred on its row.
+        assert!(!overlaps_occupied(&v, &sq, &Pose2::new(0.49 - r, 0.05, q)));
+        assert!(overlaps_occupied(&v, &sq, &Pose2::new(0.51 - r, 0.05, q)));
+        // Its lower-right edge near the cell's top-left corner: bounding boxes overlap,
+        // the shapes do not.
+        assert!(!overlaps_occupied(
+            &v,
+            &sq,
+            &Pose2::new(0.5 - 0.075, 0.1 + 0.075, q)
+        ));
+        assert!(overlaps_occupied(
+            &v,
+            &sq,
+            &Pose2::new(0.5 - 0.065, 0.1 + 0.065, q)
+        ));
     }
 }

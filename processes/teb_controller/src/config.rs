@@ -12,6 +12,7 @@ use aisle_config::checks::{non_negative, positive};
 use aisle_config::{InvalidKey, Validate};
 use aisle_geometry::Direction;
 use serde::Deserialize;
+use std::f64::consts::PI;
 
 /// Kinematic limits of the differential-drive base.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -194,6 +195,40 @@ impl Default for InputsConfig {
     }
 }
 
+/// Straight moves along a line ([`crate::Mode::Straight`]: docking under a rack and
+/// leaving it). Accelerations are `[limits]`'.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct StraightConfig {
+    /// Cruise speed along the line, m/s, forwards and backwards.
+    pub speed: f64,
+    /// Clearance kept between the footprint and occupied cells (taken as squares), m.
+    /// Replaces the goal's margin, which is sized for open space and would close the
+    /// 0.135 m a robot has on either side between a rack's legs.
+    pub margin: f64,
+    /// Pure pursuit: distance of the carrot ahead of the robot's projection on the
+    /// line, m. Shorter converges sooner and turns harder (a lateral offset decays
+    /// about e-fold per this distance driven).
+    pub look_ahead: f64,
+    /// Heading error from the line above which the robot turns on the spot before it
+    /// drives, rad.
+    pub turn_first: f64,
+    /// Integration step of the rolled-out timeline, s (one command per step).
+    pub step: f64,
+}
+
+impl Default for StraightConfig {
+    fn default() -> Self {
+        Self {
+            speed: 0.3,
+            margin: 0.02,
+            look_ahead: 0.3,
+            turn_first: 0.35,
+            step: 0.02,
+        }
+    }
+}
+
 /// Everything in `config/teb.toml`.
 #[derive(Debug, Clone, PartialEq, Deserialize, Default)]
 #[serde(deny_unknown_fields, default)]
@@ -204,6 +239,7 @@ pub struct TebConfig {
     pub solver: SolverConfig,
     pub homotopy: HomotopyConfig,
     pub inputs: InputsConfig,
+    pub straight: StraightConfig,
 }
 
 fn bad(key: &str, reason: impl Into<String>) -> InvalidKey {
@@ -297,11 +333,47 @@ impl Validate for TebConfig {
         if !(h.hysteresis.is_finite() && h.hysteresis > 0.0 && h.hysteresis <= 1.0) {
             return Err(bad("homotopy.hysteresis", "must lie in (0, 1]"));
         }
-        Ok(())
+        self.validate_straight()
     }
 }
 
 impl TebConfig {
+    fn validate_straight(&self) -> Result<(), InvalidKey> {
+        let s = &self.straight;
+        positive("straight.speed", s.speed)?;
+        let limit = self
+            .limits
+            .max_velocity
+            .min(self.limits.max_reverse_velocity);
+        if s.speed > limit {
+            return Err(bad(
+                "straight.speed",
+                format!(
+                    "{} exceeds limits.max_velocity or limits.max_reverse_velocity ({limit})",
+                    s.speed
+                ),
+            ));
+        }
+        non_negative("straight.margin", s.margin)?;
+        positive("straight.look_ahead", s.look_ahead)?;
+        if !(s.turn_first.is_finite() && s.turn_first > 0.0 && s.turn_first <= PI) {
+            return Err(bad("straight.turn_first", "must lie in (0, pi]"));
+        }
+        positive("straight.step", s.step)?;
+        // One command per step over the horizon, plus the final stop.
+        let steps = self.band.look_ahead_time / s.step;
+        if steps > (crate::MAX_COMMANDS - 1) as f64 {
+            return Err(bad(
+                "straight.step",
+                format!(
+                    "band.look_ahead_time / straight.step = {steps:.0} commands, at most {}",
+                    crate::MAX_COMMANDS - 1
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     /// Distance along the reference the band reaches ahead of the robot, m.
     pub fn look_ahead_distance(&self) -> f64 {
         self.limits.max_velocity * self.band.look_ahead_time
@@ -329,6 +401,24 @@ mod tests {
             matches!(&e, TebError::InvalidConfig(k) if k.key == "band.dt_hysteresis"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn bad_straight_values_name_their_key() {
+        let key = |f: fn(&mut StraightConfig)| {
+            let mut c = TebConfig::default();
+            f(&mut c.straight);
+            c.validate().unwrap_err().key
+        };
+        assert_eq!(key(|s| s.speed = 0.0), "straight.speed");
+        assert_eq!(key(|s| s.speed = 2.5), "straight.speed");
+        assert_eq!(key(|s| s.margin = -0.01), "straight.margin");
+        assert_eq!(key(|s| s.look_ahead = f64::NAN), "straight.look_ahead");
+        assert_eq!(key(|s| s.turn_first = 4.0), "straight.turn_first");
+        assert_eq!(key(|s| s.step = 0.001), "straight.step");
+        let r = toml::from_str::<TebConfig>("[straight]\nspeed = 0.2\n").unwrap();
+        assert_eq!(r.straight.speed, 0.2);
+        assert_eq!(r.straight.margin, StraightConfig::default().margin);
     }
 
     #[test]

@@ -5,6 +5,8 @@
 //! Pure computation: no clock, no randomness, no bus. The node calls
 //! [`TebController::step`] on its own schedule. The phases of a step live in `leg.rs`
 //! (where along the task), `planner.rs` (the band) and `objective/` (what is optimised).
+//! A straight move (docking) is not optimised: `straight.rs` rolls it out, without a
+//! band. The goal tolerance is the goal's own, or `band.goal_tolerance` without one.
 
 use aisle_geometry::{GridView, Pose2, wrap_angle};
 use serde::{Deserialize, Serialize};
@@ -18,6 +20,7 @@ use crate::objective::segment::{segment_rate, segment_velocity};
 use crate::objective::{self, Problem};
 use crate::output::{Command, ExitFlag, MAX_COMMANDS, StepOutput, TimedPose};
 use crate::planner::Planner;
+use crate::straight;
 
 /// The controller's memory between steps, for publishing and for a warm restart.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
@@ -180,10 +183,27 @@ impl TebController {
         let pose = Pose2::new(pose.x, pose.y, wrap_angle(pose.theta));
         self.out.clear();
         self.out.t0 = t;
+        let tol = active
+            .goal
+            .tolerance
+            .unwrap_or(self.cfg.band.goal_tolerance);
+        if let Mode::Straight { target } = active.goal.mode {
+            let fp = active.goal.footprint;
+            straight::step(
+                &self.cfg,
+                &fp,
+                &target,
+                &tol,
+                pose,
+                velocity,
+                map,
+                &mut self.out,
+            );
+            return Ok(&self.out);
+        }
 
         // Where along the task: the section, done or not, and this step's leg.
         active.begin_rotation(&pose);
-        let tol = self.cfg.band.goal_tolerance;
         if active.advance(&tol, &pose) {
             self.planner.clear();
         }

@@ -1,5 +1,6 @@
-//! What the controller is asked to do: follow a reference path or turn on the spot,
-//! with the footprint and safety margin of the current load.
+//! What the controller is asked to do: follow a reference path, turn on the spot, or
+//! drive straight along a line to a pose (docking under a rack and leaving it), with the
+//! footprint and safety margin of the current load and the goal tolerance.
 
 use crate::TebError;
 use aisle_geometry::{Footprint, PathPose, Pose2};
@@ -13,6 +14,13 @@ pub enum Mode {
     /// rad, within the angular velocity and acceleration limits. The reference is not
     /// used and may be empty.
     RotateInPlace { target_heading: f64 },
+    /// Drive along the line through `target` in the direction `target.theta` and stop
+    /// at `target` (docking under a rack, undocking out of it): forwards when the
+    /// target lies ahead of the robot's projection on the line, backwards otherwise,
+    /// the heading kept at `target.theta` either way (see `straight.rs`). Not the
+    /// optimiser: no band, no reference (it may be empty), and the goal's `margin`
+    /// (sized for open space) is replaced by `teb.toml`'s `straight.margin`.
+    Straight { target: Pose2 },
 }
 
 /// A task for the controller; replaced as a whole by [`crate::TebController::set_goal`].
@@ -26,6 +34,10 @@ pub struct Goal {
     /// Clearance to keep between the footprint and obstacle cells, m.
     pub margin: f64,
     pub mode: Mode,
+    /// Goal tolerance for this task in the goal's frame: along, across (m) and heading
+    /// (rad); `None` uses `teb.toml`'s `band.goal_tolerance`. Applies to every mode (a
+    /// docking move's pre-dock pose is sent with a tighter one than open-space goals).
+    pub tolerance: Option<[f64; 3]>,
 }
 
 impl Goal {
@@ -36,6 +48,7 @@ impl Goal {
         match self.mode {
             Mode::Follow => self.reference.last().map(|p| p.pose),
             Mode::RotateInPlace { .. } => None,
+            Mode::Straight { target } => Some(target),
         }
     }
 
@@ -64,6 +77,21 @@ impl Goal {
                     return Err(TebError::InvalidGoal("target heading is not finite".into()));
                 }
             }
+            Mode::Straight { target } => {
+                if !target.is_finite() {
+                    return Err(TebError::InvalidGoal(
+                        "straight target is not finite".into(),
+                    ));
+                }
+            }
+        }
+        if let Some(tol) = self.tolerance
+            && let Some(i) = tol.iter().position(|t| !(t.is_finite() && *t > 0.0))
+        {
+            return Err(TebError::InvalidGoal(format!(
+                "goal tolerance entry {i} ({}) is not positive",
+                tol[i]
+            )));
         }
         if let Some(i) = self.reference.iter().position(|p| !p.pose.is_finite()) {
             return Err(TebError::InvalidGoal(format!(

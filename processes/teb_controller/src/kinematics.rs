@@ -6,9 +6,37 @@
 //! in the step; at the constraint weight that slip costs more merit than a small step
 //! gains, and good steps were rejected (the Maratos effect). A minimum-norm
 //! Gauss-Newton correction of positions and headings removes it at the cost of a
-//! tridiagonal solve per sweep. Knows nothing of costs, obstacles or the optimiser.
+//! tridiagonal solve per sweep. Also the forward model itself, [`integrate`]: the
+//! exact arc of a constant (v, w), for timelines rolled out rather than optimised
+//! (`straight.rs`). Knows nothing of costs, obstacles or the optimiser.
+
+use aisle_geometry::{Pose2, wrap_angle};
 
 use crate::band::Band;
+
+/// sin(a) / a, accurate near 0.
+fn sinc(a: f64) -> f64 {
+    if a.abs() < 1e-4 {
+        // The next term, a^4 / 120, is below f64 resolution relative to 1.
+        1.0 - a * a / 6.0
+    } else {
+        a.sin() / a
+    }
+}
+
+/// Pose after holding (v, w) for `dt` from `pose`: the circular arc whose chord runs
+/// along the mean heading of its ends (the model [`slip`] measures deviations from),
+/// written without a division by w so a straight line needs no special case.
+pub(crate) fn integrate(pose: &Pose2, v: f64, w: f64, dt: f64) -> Pose2 {
+    let dth = w * dt;
+    let chord = v * dt * sinc(0.5 * dth);
+    let (s, c) = (pose.theta + 0.5 * dth).sin_cos();
+    Pose2::new(
+        pose.x + chord * c,
+        pose.y + chord * s,
+        wrap_angle(pose.theta + dth),
+    )
+}
 
 /// Lateral slip of segment k: zero when both poses lie on one circular arc.
 pub(crate) fn slip(band: &Band, k: usize) -> f64 {
@@ -108,7 +136,24 @@ impl Projector {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use aisle_geometry::Pose2;
+
+    #[test]
+    fn integration_follows_the_arc_and_the_line() {
+        // A quarter circle of radius 1 from the origin heading +x ends at (1, 1, pi/2).
+        let q = std::f64::consts::FRAC_PI_2;
+        let p = integrate(&Pose2::new(0.0, 0.0, 0.0), q, q, 1.0);
+        assert!(
+            (p.x - 1.0).abs() < 1e-12 && (p.y - 1.0).abs() < 1e-12,
+            "{p:?}"
+        );
+        assert!((p.theta - q).abs() < 1e-12);
+        // Straight backwards along a heading of pi / 2.
+        let p = integrate(&Pose2::new(1.0, 2.0, q), -0.5, 0.0, 2.0);
+        assert!(
+            (p.x - 1.0).abs() < 1e-12 && (p.y - 1.0).abs() < 1e-12,
+            "{p:?}"
+        );
+    }
 
     #[test]
     fn projection_removes_slip_and_keeps_headings_and_start() {

@@ -56,6 +56,8 @@ impl Active {
             Mode::Follow => Reference::new(goal.reference.clone()),
             // Built at the first step, where the robot is.
             Mode::RotateInPlace { .. } => Reference::default(),
+            // Driven along its line by `straight.rs`, without a reference.
+            Mode::Straight { .. } => Reference::default(),
         };
         Active {
             goal: goal.clone(),

@@ -7,9 +7,12 @@
 //! band. Outputs follow MATLAB controllerTEB: a (t, v, w) timeline, predicted poses,
 //! reached-goal and exit flag. Knows nothing of the bus (the `node` module adapts it).
 //!
+//! Docking under a rack and leaving it (`Mode::Straight`) is not optimised: a line
+//! tracker rolls the timeline out and sweeps the footprint along it (`straight.rs`).
+//!
 //! ```text
 //! let mut teb = TebController::new(aisle_config::load::<TebConfig>(Path::new("config/teb.toml"))?)?;
-//! teb.set_goal(&Goal { reference, footprint, margin: 0.1, mode: Mode::Follow })?;
+//! teb.set_goal(&Goal { reference, footprint, margin: 0.1, mode: Mode::Follow, tolerance: None })?;
 //! // every 0.5 s of sim time:
 //! let out = teb.step(pose, (v, w), t_now, &local_map)?;   // &StepOutput, reused buffers
 //! let (v, w) = out.command_at(t);                          // zero-order hold, sim time
@@ -36,6 +39,7 @@ mod qp;
 mod reference;
 mod scp;
 mod seed;
+mod straight;
 mod timing;
 mod trust_region;
 
@@ -44,7 +48,8 @@ mod tests;
 
 pub use band::Band;
 pub use config::{
-    BandConfig, HomotopyConfig, LimitsConfig, SolverConfig, TebConfig, WeightsConfig,
+    BandConfig, HomotopyConfig, LimitsConfig, SolverConfig, StraightConfig, TebConfig,
+    WeightsConfig,
 };
 pub use controller::{Snapshot, TebController};
 pub use error::TebError;

@@ -82,7 +82,9 @@ fn goal_of(msg: &ControllerGoal) -> Option<Result<Goal, String>> {
         Some(GoalMode::RotateInPlace) => Mode::RotateInPlace {
             target_heading: msg.target.theta,
         },
-        Some(GoalMode::Straight) => return Some(Err("straight moves are not built yet".into())),
+        Some(GoalMode::Straight) => Mode::Straight {
+            target: msg.target.into(),
+        },
         None => return Some(Err(format!("unknown goal mode {}", msg.mode))),
     };
     let n = (msg.len as usize).min(msg.reference.len());
@@ -98,7 +100,26 @@ fn goal_of(msg: &ControllerGoal) -> Option<Result<Goal, String>> {
         footprint,
         margin: msg.margin,
         mode,
+        tolerance: tolerance_of(msg),
     }))
+}
+
+/// The goal's own tolerance when the supervisor filled one in (three positive finite
+/// numbers); otherwise `None`, and the controller uses `teb.toml`'s
+/// `band.goal_tolerance` (an older sender leaves the field zero).
+fn tolerance_of(msg: &ControllerGoal) -> Option<[f64; 3]> {
+    let tol = msg.goal_tolerance;
+    if tol.iter().all(|t| t.is_finite() && *t > 0.0) {
+        return Some(tol);
+    }
+    if tol.iter().any(|t| *t != 0.0) {
+        tracing::warn!(
+            "teb_controller: goal {}: goal_tolerance {tol:?} is not three positive \
+             numbers; using teb.toml band.goal_tolerance",
+            msg.goal_id
+        );
+    }
+    None
 }
 
 /// The controller as a stage: one TEB step on every controller tick.
@@ -563,6 +584,97 @@ mod tests {
             speed > 0.0 && len > 1,
             "flag {flag}, |v|+|w| {speed}, {len} commands"
         );
+    }
+
+    /// A straight move from the origin to (1, 0) heading +x, and a free local map and
+    /// the robot's state for tick `k`.
+    fn straight_task(io: &MemIo, k: u64, tolerance: [f64; 3]) {
+        io.push(topics::CONTROLLER_GOAL, |g| {
+            g.goal_id = 3;
+            g.mode = GoalMode::Straight as u32;
+            g.footprint_length = 0.508;
+            g.footprint_width = 0.43;
+            g.margin = 0.1;
+            g.goal_tolerance = tolerance;
+            g.target.x = 1.0;
+        });
+        io.push(topics::LOCAL_MAP, |m| {
+            m.header.tick = k;
+            m.header.stamp_ns = k * 100_000_000;
+            m.width = 40;
+            m.height = 40;
+            m.resolution = 0.1;
+            m.origin_x = -2.0;
+            m.origin_y = -2.0;
+        });
+        io.push(topics::ROBOT_STATE, |r| {
+            r.header.stamp_ns = k * 100_000_000;
+        });
+    }
+
+    #[test]
+    fn a_straight_goal_maps_with_its_own_tolerance_or_the_fallback() {
+        let mut g = *aisle_messages::zeroed_box::<ControllerGoal>();
+        g.mode = GoalMode::Straight as u32;
+        g.footprint_length = 0.508;
+        g.footprint_width = 0.43;
+        g.target.x = 2.0;
+        g.target.theta = 0.5;
+        g.goal_tolerance = [0.08, 0.04, 0.06];
+        let goal = goal_of(&g).unwrap().unwrap();
+        assert_eq!(
+            goal.mode,
+            Mode::Straight {
+                target: Pose2::new(2.0, 0.0, 0.5)
+            }
+        );
+        assert_eq!(goal.tolerance, Some([0.08, 0.04, 0.06]));
+        assert!(goal.reference.is_empty());
+        for bad in [
+            [0.0; 3],
+            [0.1, 0.0, 0.1],
+            [0.1, f64::NAN, 0.1],
+            [-0.1, 0.1, 0.1],
+        ] {
+            g.goal_tolerance = bad;
+            assert_eq!(goal_of(&g).unwrap().unwrap().tolerance, None, "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn a_straight_goal_drives_and_a_restarted_controller_resumes_it_without_a_band() {
+        let (mut s, io) = (stage(), MemIo::new());
+        straight_task(&io, 10, [0.08, 0.04, 0.06]);
+        s.process(&tick(10, STAGE_CONTROLLER), &io).unwrap();
+        let (flag, len, v) = io
+            .published(topics::TRAJECTORY, 0, |t| {
+                (t.exit_flag, t.len, t.commands[5].v)
+            })
+            .unwrap();
+        assert_eq!(flag, 0);
+        assert!(len > 10 && v > 0.0, "{len} commands, v {v}");
+        let band_len = io.published(topics::CONTROLLER_BAND, 0, |b| b.len).unwrap();
+        assert_eq!(band_len, 0);
+
+        // A restarted controller: the goal and the (empty) band it published.
+        let (mut r, io) = (stage(), MemIo::new());
+        straight_task(&io, 15, [0.08, 0.04, 0.06]);
+        io.retain(topics::CONTROLLER_BAND, |b| {
+            b.header.tick = 14;
+            b.goal_id = 3;
+        });
+        let ctx = RunContext {
+            mode: TickMode::Lockstep,
+            seed: 1,
+            restarted: true,
+        };
+        r.restore(&io, &ctx).unwrap();
+        r.process(&tick(15, STAGE_CONTROLLER), &io).unwrap();
+        let got = io
+            .published(topics::TRAJECTORY, 0, |t| (t.goal_id, t.exit_flag, t.len))
+            .unwrap();
+        assert_eq!((got.0, got.1), (3, 0));
+        assert!(got.2 > 10, "{got:?}");
     }
 
     #[test]

@@ -10,6 +10,7 @@ use aisle_geometry::{
 use crate::{ExitFlag, Goal, Mode, Snapshot, StepOutput, TebConfig, TebController, TebError};
 
 mod golden;
+mod straight;
 
 const ROBOT: Footprint = Footprint::new(0.508, 0.43);
 const RACK: Footprint = Footprint::new(0.88, 0.8);
@@ -97,6 +98,7 @@ fn follow(reference: Vec<PathPose>, footprint: Footprint, margin: f64) -> Goal {
         footprint,
         margin,
         mode: Mode::Follow,
+        tolerance: None,
     }
 }
 
@@ -338,6 +340,50 @@ fn reached_goal_exactly_inside_the_tolerance() {
             assert_eq!(out.command_at(0.0), (0.0, 0.0));
         }
     }
+    // The goal's own tolerance replaces teb.toml's, in every mode.
+    let tight = Some([0.08, 0.04, 0.06]);
+    let rotate = Goal {
+        reference: vec![],
+        footprint: ROBOT,
+        margin: 0.1,
+        mode: Mode::RotateInPlace {
+            target_heading: 0.0,
+        },
+        tolerance: tight,
+    };
+    let straight = Goal {
+        mode: Mode::Straight {
+            target: Pose2::new(3.0, 0.0, 0.0),
+        },
+        ..rotate.clone()
+    };
+    let followed = Goal {
+        tolerance: tight,
+        ..goal.clone()
+    };
+    let cases = [
+        (&followed, Pose2::new(3.07, 0.0, 0.0), true),
+        (&followed, Pose2::new(3.09, 0.0, 0.0), false),
+        (&followed, Pose2::new(3.0, 0.05, 0.0), false),
+        (&straight, Pose2::new(2.93, -0.03, 0.05), true),
+        (&straight, Pose2::new(3.0, 0.0, 0.07), false),
+        (&rotate, Pose2::new(3.0, 0.0, 0.05), true),
+        (&rotate, Pose2::new(3.0, 0.0, -0.07), false),
+    ];
+    for (goal, pose, inside) in cases {
+        let mut teb = TebController::new(TebConfig::default()).unwrap();
+        teb.set_goal(goal).unwrap();
+        let out = teb.step(pose, (0.0, 0.0), 0.0, &map.view()).unwrap();
+        assert_eq!(out.reached_goal, inside, "{:?} at {pose:?}", goal.mode);
+    }
+    let mut bad = straight.clone();
+    bad.tolerance = Some([0.1, 0.0, 0.1]);
+    assert!(
+        TebController::new(TebConfig::default())
+            .unwrap()
+            .set_goal(&bad)
+            .is_err()
+    );
 }
 
 #[test]
@@ -490,6 +536,7 @@ fn rotate_in_place_turns_to_the_heading_within_the_limits() {
         mode: Mode::RotateInPlace {
             target_heading: 2.5,
         },
+        tolerance: None,
     };
     let run = drive(&goal, &vec![], Pose2::new(1.0, 2.0, -0.5), 40);
     assert!(run.reached, "{:?} flags {:?}", run.final_pose, run.flags);

@@ -116,6 +116,7 @@ fn bench_goal(footprint: Footprint, margin: f64, radius: f64) -> Goal {
         footprint,
         margin,
         mode: Mode::Follow,
+        tolerance: None,
     }
 }
 
@@ -344,6 +345,7 @@ fn digests() -> Vec<(&'static str, u64)> {
         mode: Mode::RotateInPlace {
             target_heading: 2.5,
         },
+        tolerance: None,
     };
     let start = Pose2::new(1.0, 2.0, -0.5);
     d.push((
