@@ -3,8 +3,10 @@
 //! (commands timed from the tick's sim time) and the band (`ControllerBand`, history 1).
 //!
 //! Goals come from the supervisor (`ControllerGoal`, history 1): a new `goal_id`
-//! replaces the task; `Idle` clears it. Without a task, or when a step fails, the
-//! trajectory is a single zero command, so the robot stops.
+//! replaces the task; `Idle` clears it. A goal's `goal_tolerance` is used when it
+//! holds three positive numbers, else `teb.toml`'s `band.goal_tolerance`. Without a
+//! task, or when a step fails, the trajectory is a single zero command, so the robot
+//! stops.
 //!
 //! Freshness is a safety rule here: a local map or robot state older than
 //! `teb.toml`'s `inputs.max_age` (sim time since its tick; in realtime also wall time
