@@ -138,10 +138,15 @@ pub fn check_goal(view: &LegView, g: &Ground) -> Result<(), Refusal> {
         if let Some(&Some(i)) = hits.first()
             && hits.iter().all(Option::is_some)
         {
+            let heading = if view.headings.len() == 1 {
+                format!(", {}", view.headings[0])
+            } else {
+                " in every heading the planner may choose".into()
+            };
             let what = format!(
-                "at the goal {at} of leg `{}`, the carrying footprint (robot.toml \
-                 footprint.carrying, {} x {} m)",
-                leg.name, f.length, f.width
+                "at the goal ({}, {}{heading}) of leg `{}`, the carrying footprint \
+                 (robot.toml footprint.carrying, {} x {} m)",
+                goal.x, goal.y, leg.name, f.length, f.width
             );
             return Err(refusal(view, g, &what, i));
         }
