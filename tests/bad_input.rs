@@ -166,6 +166,71 @@ fn a_goal_outside_the_map_is_refused_as_outside_the_map() {
 }
 
 #[test]
+fn a_goal_inside_a_static_body_is_refused_before_launch() {
+    let dir = TestDir::new("goal-in-body");
+    let mission = support::mission_file(
+        &dir,
+        "walled.toml",
+        "[[leg]]\nname = \"into the rack\"\ngoal = [5.0, 13.25, 0.0]\n",
+    );
+    let (code, err) = run_refused(&dir, &["run", "--quiet", "--mission", s(&mission)]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("walled.toml:"), "{err}");
+    assert!(err.contains("key `leg[0].goal`"), "{err}");
+    assert!(err.contains("leg `into the rack`"), "{err}");
+    assert!(err.contains("overlaps body `rack_row_2`"), "{err}");
+}
+
+#[test]
+fn a_rack_set_down_onto_another_is_refused_before_launch_naming_both() {
+    let dir = TestDir::new("drop-on-rack");
+    let mission = support::mission_file(
+        &dir,
+        "drop.toml",
+        "[[leg]]\nname = \"to pick\"\napproach = \"rack2b\"\n\n\
+         [[leg]]\nname = \"onto rack2a\"\ngoal = [2.0, 16.5, 0.0]\ncarry = \"rack2b\"\n",
+    );
+    let (code, err) = run_refused(&dir, &["run", "--quiet", "--mission", s(&mission)]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("drop.toml:"), "{err}");
+    assert!(err.contains("key `leg[1].goal`"), "{err}");
+    assert!(
+        err.contains("leg `onto rack2a` sets `rack2b` down"),
+        "{err}"
+    );
+    assert!(err.contains("overlaps body `rack2a`"), "{err}");
+}
+
+#[test]
+fn a_goal_the_static_map_cannot_reach_is_refused_by_check() {
+    // Static walls closing a 2 m room around the seed's drop pose.
+    let dir = TestDir::new("goal-walled-in");
+    let room: String = [
+        ("south", 6.0, -8.1, 2.4, 0.2),
+        ("north", 6.0, -5.9, 2.4, 0.2),
+    ]
+    .iter()
+    .chain(&[("west", 4.9, -7.0, 0.2, 2.4), ("east", 7.1, -7.0, 0.2, 2.4)])
+    .map(|(n, x, y, sx, sy)| {
+        format!(
+            "[[body]]\nname = \"room_{n}\"\nkind = \"wall\"\nstatic = true\n\
+                 pose = [{x}, {y}, 0.0]\nsize = [{sx}, {sy}, 1.0]\n\n"
+        )
+    })
+    .collect();
+    let anchor = "# ---- Movable: pallet racks";
+    let cfg = config_with(&dir, "cfg", "warehouse.toml", anchor, &(room + anchor));
+    let (code, err) = run_refused(&dir, &["check", "--config-dir", s(&cfg)]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("mission.toml:"), "{err}");
+    assert!(err.contains("key `leg[2].goal`"), "{err}");
+    assert!(
+        err.contains("leg `carry to drop` is unreachable on the static map"),
+        "{err}"
+    );
+}
+
+#[test]
 fn output_paths_are_refused_before_launch_naming_path_and_os_error() {
     let dir = TestDir::new("outputs");
     let (code, err) = run_refused(&dir, &["run", "--report", "/nonexistent/dir/x.json"]);

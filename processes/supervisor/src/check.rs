@@ -2,10 +2,19 @@
 //! reported with its file, line and key before anything starts; then the checks across
 //! files: [`sensor`] (can the lidar see what the robot can drive into before it can
 //! stop?) and [`placement`] (a start pose inside a body, a start or goal outside the
-//! map). `aisle run` goes through the same path before it launches anything.
+//! map, and leg by leg a goal or drop pose that overlaps a known body or that the static
+//! map cannot reach: [`legs`], [`goals`], [`reach`]). `aisle run` goes through the same
+//! path before it launches anything.
 
+pub mod goals;
+pub mod legs;
+#[cfg(test)]
+mod mission_tests;
 pub mod placement;
+pub mod reach;
 pub mod sensor;
+#[cfg(test)]
+mod testing;
 
 use crate::budgets::Budgets;
 use crate::mission::MissionConfig;
@@ -103,6 +112,8 @@ pub struct Loaded {
     pub robot: aisle_robot::RobotConfig,
     pub model: aisle_robot::RobotModel,
     pub map: placement::Extent,
+    /// The static map (`mapper.toml`: the scene's static bodies, or a ROS map).
+    pub static_map: aisle_geometry::GridMap,
     pub teb: aisle_teb_controller::TebConfig,
 }
 
@@ -122,6 +133,7 @@ impl Loaded {
             aisle_config::load::<aisle_teb_controller::TebConfig>(&files.teb).map_err(|e| s(&e))?;
         Ok(Loaded {
             map: map.view().bounds(),
+            static_map: map,
             scene,
             robot,
             model,
@@ -145,6 +157,8 @@ pub fn load_mission(
         robot: &ground.robot,
         model: &ground.model,
         map: ground.map,
+        static_map: ground.static_map.view(),
+        map_path: &files.mapper,
     };
     placement::check_mission(&mission, path, &g).map_err(|e| e.to_string())?;
     let mount = ground

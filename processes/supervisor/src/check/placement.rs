@@ -1,13 +1,19 @@
-//! Where a mission puts the robot, against the scene and the map: a start pose whose
-//! footprint overlaps a body (the simulator's own contact test, so the verdict is the
-//! one the simulator would give after launch), and a start or goal outside the map.
-//! Each refusal names the mission file, the key and the body or the map's extent.
-//! Knows nothing of how the mission is driven.
+//! Where a mission puts the robot, against the scene and the map, before anything is
+//! launched: a start pose whose footprint overlaps a body (the simulator's own contact
+//! test, so the verdict is the one the simulator would give after launch), a start or
+//! goal outside the map, and then leg by leg ([`super::legs`]) a goal where the robot
+//! (or a carried rack) would overlap a known body ([`super::goals`]) or that the static
+//! map cannot connect to where the leg starts ([`super::reach`]). Each refusal names the
+//! mission file, the key, the leg and the body or the map. Knows nothing of how the
+//! mission is driven.
 
+use super::goals::{self, Refusal};
+use super::legs::{self, LegView};
+use super::reach::{Reach, Verdict};
 use crate::mission::MissionConfig;
 use aisle_config::ConfigError;
 use aisle_config::scene::Scene;
-use aisle_geometry::{Footprint, Pose2};
+use aisle_geometry::{Footprint, GridView, Pose2};
 use aisle_robot::{RobotConfig, RobotModel};
 use aisle_simulator::SimError;
 use aisle_simulator::world::World;
@@ -23,6 +29,9 @@ pub struct Ground<'a> {
     pub robot: &'a RobotConfig,
     pub model: &'a RobotModel,
     pub map: Extent,
+    /// The static map the planner plans on first (`mapper.toml`), and that file.
+    pub static_map: GridView<'a>,
+    pub map_path: &'a Path,
 }
 
 /// Checks the start pose and every leg's goal of `mission` (read from `path`).
@@ -66,7 +75,54 @@ pub fn check_mission(
             ));
         }
     }
+    let mut reach = Reach::new(ground.static_map);
+    for view in legs::walk(mission, ground.scene, ground.model.carry_mount_planar()) {
+        let tolerance = mission.goal_tolerance[0].hypot(mission.goal_tolerance[1]);
+        goals::check_pick(&view, ground, tolerance)
+            .and_then(|()| goals::check_goal(&view, ground))
+            .and_then(|()| goals::check_drop(&view, ground))
+            .and_then(|()| reachable(&view, ground, &mut reach))
+            .map_err(|r| bad(&r.key, r.why))?;
+    }
     Ok(())
+}
+
+/// Leg `view`'s goal against the static map, with the leg's footprint (carrying on a
+/// carry leg). A turn in place goes nowhere; a start the map blocks proves nothing.
+fn reachable(view: &LegView, ground: &Ground, reach: &mut Reach) -> Result<(), Refusal> {
+    if view.leg.rotate {
+        return Ok(());
+    }
+    let (spec, which) = if view.drop.is_some() {
+        (&ground.robot.footprint.carrying, "carrying")
+    } else {
+        (&ground.robot.footprint.alone, "alone")
+    };
+    let f = spec.footprint();
+    let footprint = format!(
+        "the robot's footprint (robot.toml footprint.{which}, {} x {} m)",
+        f.length, f.width
+    );
+    let (from, to) = (view.start[0], view.goal);
+    let map = ground.map_path.display();
+    let why = match reach.verdict((from.x, from.y), (to.x, to.y), f.inscribed_radius()) {
+        Verdict::Connected | Verdict::StartBlocked => return Ok(()),
+        Verdict::GoalBlocked => format!(
+            "the goal ({}, {}) of leg `{}` is unreachable on the static map ({map}): \
+             whatever its heading, {footprint} there touches occupied cells",
+            to.x, to.y, view.leg.name
+        ),
+        Verdict::Disconnected => format!(
+            "the goal ({}, {}) of leg `{}` is unreachable on the static map ({map}): \
+             no passage wide enough for {footprint} connects it to ({}, {}), where the \
+             leg starts",
+            to.x, to.y, view.leg.name, from.x, from.y
+        ),
+    };
+    Err(Refusal {
+        key: goals::goal_key(view),
+        why,
+    })
 }
 
 /// Why `pose` is outside the map, if it is: its centre, or a corner of the robot's
@@ -131,6 +187,8 @@ mod tests {
             robot: &f.robot,
             model: &f.model,
             map: map.view().bounds(),
+            static_map: map.view(),
+            map_path: &shipped("mapper.toml"),
         };
         check_mission(&mission, &path, &ground)
     }
