@@ -17,6 +17,7 @@
 //! - [`records`]: `aisle replay`, `profile` and `render` of MCAP recordings.
 //! - [`replay_check`]: `aisle replay --check`, the mapper and controller against a recording.
 //! - [`scenario`]: `aisle scenario generate`, config directories varied by seed and family.
+//! - [`scenario_cli`]: the arguments of `scenario generate` and `sweep`.
 //! - [`sweep`]: `aisle sweep`, many scenarios run in parallel against their oracles.
 
 pub mod budgets;
@@ -33,5 +34,6 @@ pub mod replay_check;
 pub mod report;
 pub mod restart;
 pub mod scenario;
+pub mod scenario_cli;
 pub mod session;
 pub mod sweep;

@@ -145,11 +145,13 @@ fn describe(b: &NewBody) -> String {
 /// the only way; else a drop or park pose walled in on all four sides. The other kind
 /// when the first finds no room.
 pub fn infeasible(g: &Ground, rng: &mut ChaCha8Rng, d: &mut Draft) -> bool {
-    if rng.random_bool(0.5) {
-        narrow(g, rng, d) || enclose(g, rng, d)
+    type Kind = fn(&Ground, &mut ChaCha8Rng, &mut Draft) -> bool;
+    let order: [Kind; 2] = if rng.random_bool(0.5) {
+        [narrow, enclose]
     } else {
-        enclose(g, rng, d) || narrow(g, rng, d)
-    }
+        [enclose, narrow]
+    };
+    order.iter().any(|kind| kind(g, rng, d))
 }
 
 fn narrow(g: &Ground, rng: &mut ChaCha8Rng, d: &mut Draft) -> bool {

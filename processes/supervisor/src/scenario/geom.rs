@@ -100,7 +100,7 @@ mod tests {
         assert!(!square(0.0, 0.0, FRAC_PI_4).overlaps(&square(0.8, 0.8, FRAC_PI_4)));
         assert!(
             square(0.0, 0.0, 0.0)
-                .grown(0.06)
+                .grown(0.11)
                 .overlaps(&square(1.1, 0.0, 0.0))
         );
     }
@@ -121,7 +121,7 @@ mod tests {
     fn inside_counts_corners() {
         let extent = (-1.0, -1.0, 1.0, 1.0);
         assert!(square(0.0, 0.0, 0.0).inside(extent));
-        assert!(!square(0.0, 0.0, FRAC_PI_4).grown(0.1).inside(extent));
+        assert!(!square(0.0, 0.0, FRAC_PI_4).grown(0.3).inside(extent));
         assert!(!square(0.6, 0.0, 0.0).inside(extent));
     }
 }

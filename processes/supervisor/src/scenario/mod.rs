@@ -25,6 +25,8 @@ use aisle_geometry::Pose2;
 use ground::{Ground, Layout};
 use rand::SeedableRng;
 use rand::rngs::ChaCha8Rng;
+#[cfg(test)]
+use std::path::Path;
 use std::path::PathBuf;
 
 /// What a scenario varies.
@@ -245,3 +247,6 @@ pub fn generate_from(g: &Ground, opts: &GenerateOptions) -> Result<Generated, St
         opts.seed
     ))
 }
+
+#[cfg(test)]
+mod tests;
