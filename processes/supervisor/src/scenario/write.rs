@@ -39,6 +39,13 @@ impl Header<'_> {
 /// Copies `base` into `out` (created if missing; files there are overwritten), then
 /// writes the draft's scene and mission.
 pub fn write_dir(base: &Path, out: &Path, d: &Draft, h: &Header) -> Result<(), String> {
+    let same = |a: &Path, b: &Path| matches!((a.canonicalize(), b.canonicalize()), (Ok(a), Ok(b)) if a == b);
+    if same(base, out) {
+        return Err(format!(
+            "{}: the output directory is the base config directory",
+            out.display()
+        ));
+    }
     copy_tree(base, out)?;
     let mut scene = read_table(&base.join("warehouse.toml"))?;
     let bodies = body_tables(&mut scene)?;

@@ -113,18 +113,26 @@ pub fn family_stats(family: &str, results: &[&ScenarioResult]) -> FamilyStats {
     }
 }
 
-/// A failure reason with its numbers blanked, so that alike reasons count together.
+/// A failure reason with its numbers blanked, so that alike reasons count together
+/// (digits inside a name, such as `rack2b`, are kept).
 pub fn reason_kind(reason: &str) -> String {
     let mut out = String::with_capacity(reason.len());
     let mut in_number = false;
+    let mut prev = ' ';
     for c in reason.chars() {
-        let digit = c.is_ascii_digit() || (in_number && (c == '.' || c == '-'));
+        let starts = c.is_ascii_digit() && !(prev.is_alphanumeric() || prev == '_');
+        let digit = if in_number {
+            c.is_ascii_digit() || c == '.'
+        } else {
+            starts
+        };
         if digit && !in_number {
             out.push('#');
         } else if !digit {
             out.push(c);
         }
         in_number = digit;
+        prev = c;
     }
     out
 }
@@ -155,6 +163,10 @@ mod tests {
         assert_eq!(
             reason_kind("leg 2 (park): timed out after 120.0 s at (1.25, -3.5)"),
             "leg # (park): timed out after # s at (#, -#)"
+        );
+        assert_eq!(
+            reason_kind("collision with `rack2b` at t = 4.7 s"),
+            "collision with `rack2b` at t = # s"
         );
     }
 }
