@@ -5,6 +5,7 @@
 
 use crate::nodes::NodeOptions;
 use crate::records::{RecordRequest, ReplayRequest};
+use crate::scenario_cli::{self, ScenarioCommand, SweepArgs};
 use crate::session::RunOptions;
 use crate::{check, exit, nodes, records, session};
 use aisle_messages::TickMode;
@@ -100,6 +101,28 @@ setup failure)."
         #[arg(long)]
         dry_run: bool,
     },
+    /// Scenarios: config directories varied deterministically from a seed.
+    #[command(
+        after_help = "Exit: 0 written (it passes `aisle check`), 2 could not (invalid \
+base config, unknown family, unwritable directory, no valid draw)."
+    )]
+    Scenario {
+        #[command(subcommand)]
+        command: ScenarioCommand,
+    },
+    /// Generate N scenarios over the families, run each (and its oracle, every unseen
+    /// body on the map) J at a time, and print a table: success rate per family with a
+    /// 95% interval, collisions, clean failures, time to goal, path length against the
+    /// oracle's. Writes DIR/sweep.json and DIR/sweep.md; failures get a record and a
+    /// picture in DIR/failures.
+    #[command(
+        after_help = "Exit: 0 every feasible scenario succeeded with 0 collisions and \
+every infeasible one failed cleanly (exit 1, no collision, a reason), 1 otherwise (a \
+failure, a collision, an unclean failure, an error: exit 2, crash or timeout of a run, or \
+a scenario that could not be generated), 2 could not run (invalid base config, bad \
+arguments, unwritable output directory)."
+    )]
+    Sweep(SweepArgs),
     /// Run one node of a process group (started by `aisle run`, not by hand).
     #[command(hide = true)]
     Node(NodeCmd),
@@ -323,6 +346,22 @@ pub fn main() -> ExitCode {
             records::render(&file, &output, pixels_per_metre, band_every)
         }
         Command::Clean { dry_run } => crate::clean::clean(dry_run),
+        Command::Scenario {
+            command:
+                ScenarioCommand::Generate {
+                    seed,
+                    family,
+                    out,
+                    config_dir: cd,
+                },
+        } => {
+            init_logging("warn");
+            scenario_cli::generate(seed, &family, out, &config_dir(cd.as_deref()))
+        }
+        Command::Sweep(a) => {
+            init_logging("warn");
+            scenario_cli::sweep(a)
+        }
         Command::Run(args) => {
             init_logging("info");
             run(&args.into())

@@ -16,6 +16,9 @@
 //! - [`nodes`]: `aisle node <name>`, which runs one process's node adapter.
 //! - [`records`]: `aisle replay`, `profile` and `render` of MCAP recordings.
 //! - [`replay_check`]: `aisle replay --check`, the mapper and controller against a recording.
+//! - [`scenario`]: `aisle scenario generate`, config directories varied by seed and family.
+//! - [`scenario_cli`]: the arguments of `scenario generate` and `sweep`.
+//! - [`sweep`]: `aisle sweep`, many scenarios run in parallel against their oracles.
 
 pub mod budgets;
 pub mod check;
@@ -30,4 +33,7 @@ pub mod records;
 pub mod replay_check;
 pub mod report;
 pub mod restart;
+pub mod scenario;
+pub mod scenario_cli;
 pub mod session;
+pub mod sweep;

@@ -1,0 +1,120 @@
+//! The command line of `aisle scenario generate` and `aisle sweep`: their arguments
+//! (clap) and how they become [`crate::scenario::GenerateOptions`] and
+//! [`crate::sweep::SweepOptions`], and their exit codes. Part of [`crate::cli`], kept
+//! apart so that each file stays small.
+
+use crate::cli::config_dir;
+use crate::exit;
+use clap::{Args, Subcommand};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+#[derive(Debug, Subcommand)]
+pub enum ScenarioCommand {
+    /// Write a config directory: a copy of the base one with warehouse.toml and
+    /// mission.toml varied by (seed, family); the header of each says what changed.
+    /// Families: moved, extra, start, gap, mission, infeasible.
+    Generate {
+        #[arg(long)]
+        seed: u64,
+        #[arg(long)]
+        family: String,
+        /// The directory to write (created; files in it are overwritten).
+        #[arg(long)]
+        out: PathBuf,
+        /// The base config directory (default: ./config, else the built-in one).
+        #[arg(long)]
+        config_dir: Option<PathBuf>,
+    },
+}
+
+#[derive(Debug, Clone, Args)]
+pub struct SweepArgs {
+    /// Number of scenarios.
+    #[arg(long, default_value_t = 200)]
+    pub count: usize,
+    /// Seed of the sweep (scenario i gets seed * 1000000 + i).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Runs at a time (default: the number of cores).
+    #[arg(long)]
+    pub jobs: Option<usize>,
+    /// Families to spread the scenarios over, round-robin (default: all).
+    #[arg(long, value_delimiter = ',')]
+    pub families: Vec<String>,
+    /// Output directory.
+    #[arg(long, default_value = "sweep")]
+    pub out: PathBuf,
+    /// The base config directory (default: ./config, else the built-in one).
+    #[arg(long)]
+    pub config_dir: Option<PathBuf>,
+    /// Wall-clock limit of one run, seconds (then its group is stopped: an error).
+    #[arg(long, default_value_t = 120.0)]
+    pub timeout: f64,
+}
+
+/// `aisle scenario generate`.
+pub fn generate(seed: u64, family: &str, out: PathBuf, base: &Path) -> ExitCode {
+    let family = match crate::scenario::Family::parse(family) {
+        Ok(f) => f,
+        Err(e) => return exit::fail(e),
+    };
+    let opts = crate::scenario::GenerateOptions {
+        seed,
+        family,
+        out,
+        base: base.to_path_buf(),
+    };
+    match crate::scenario::generate(&opts) {
+        Ok(g) => {
+            println!("wrote {} ({} seed {seed})", g.dir.display(), family.name());
+            for v in &g.varied {
+                println!("  {v}");
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => exit::fail(e),
+    }
+}
+
+/// `aisle sweep`.
+pub fn sweep(a: SweepArgs) -> ExitCode {
+    use crate::scenario::Family;
+    let families = if a.families.is_empty() {
+        Ok(Family::ALL.to_vec())
+    } else {
+        a.families.iter().map(|f| Family::parse(f)).collect()
+    };
+    let families = match families {
+        Ok(f) => f,
+        Err(e) => return exit::fail(e),
+    };
+    if a.count == 0 || a.jobs == Some(0) || !(a.timeout.is_finite() && a.timeout > 0.0) {
+        return exit::fail("--count and --jobs must be at least 1, --timeout positive");
+    }
+    let jobs = a
+        .jobs
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let opts = crate::sweep::SweepOptions {
+        count: a.count,
+        seed: a.seed,
+        jobs,
+        families,
+        out: a.out,
+        base: config_dir(a.config_dir.as_deref()),
+        timeout: std::time::Duration::from_secs_f64(a.timeout),
+    };
+    let report = match crate::sweep::sweep(&opts) {
+        Ok(r) => r,
+        Err(e) => return exit::fail(e),
+    };
+    match crate::sweep::write(&opts, &report) {
+        Ok(md) => print!("{md}"),
+        Err(e) => return exit::fail(e),
+    }
+    if report.all_as_expected {
+        ExitCode::SUCCESS
+    } else {
+        exit::negative()
+    }
+}
