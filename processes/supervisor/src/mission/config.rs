@@ -40,6 +40,10 @@ pub struct MissionConfig {
     pub leg_timeout_s: f64,
     pub max_replans_per_leg: u32,
     pub replan_cooldown_steps: u32,
+    /// Sim time a driving leg may go without getting closer to what it drives to before
+    /// it counts as stuck and recovers like an infeasible band.
+    #[serde(default = "default_stall_timeout")]
+    pub stall_timeout_s: f64,
     /// Simulation ticks per second of sim time (the seed: 10 Hz).
     #[serde(default = "default_rate")]
     pub update_rate_hz: f64,
@@ -63,6 +67,9 @@ fn default_controller_period() -> f64 {
 }
 fn default_planner_timeout() -> f64 {
     5.0
+}
+fn default_stall_timeout() -> f64 {
+    10.0
 }
 fn default_tolerance() -> [f64; 3] {
     [0.2, 0.2, 0.2]
@@ -97,6 +104,15 @@ impl MissionConfig {
                 format!(
                     "must be a positive number of seconds, got {}",
                     self.leg_timeout_s
+                ),
+            ));
+        }
+        if !(self.stall_timeout_s.is_finite() && self.stall_timeout_s > 0.0) {
+            return Err(bad(
+                "stall_timeout_s",
+                format!(
+                    "must be a positive number of seconds, got {}",
+                    self.stall_timeout_s
                 ),
             ));
         }

@@ -54,7 +54,7 @@ enum Stage {
     /// On the reference path (no straight move, or past the one out).
     Path,
     /// On the way to the pose the move under the body starts from; then to `under`.
-    ToDock { under: Pose2 },
+    ToDock { from: Pose2, under: Pose2 },
     /// Driving straight under the body.
     Docking,
     /// Driving straight out of the body; then `rest` of the path.
@@ -103,6 +103,8 @@ pub struct Mission {
     /// The carried body's pose relative to the robot (from the pick).
     carried_rel: Option<Pose2>,
     stage: Stage,
+    /// Whether the current stage is getting anywhere.
+    progress: progress::Progress,
     /// While set, the leg is on its straight departure to this pose.
     departure: Option<Pose2>,
     /// The controller has a reference path for the current leg.
@@ -128,6 +130,7 @@ impl Mission {
             under: None,
             carried_rel: None,
             stage: Stage::Path,
+            progress: progress::Progress::default(),
             departure: None,
             has_reference: false,
             failure: None,
@@ -229,6 +232,7 @@ impl Mission {
         self.cooldown = 0;
         self.has_reference = false;
         self.stage = Stage::Path;
+        self.progress.reset(now_s);
         let mut actions = Vec::new();
         if let Some(body) = self.spec().carry.clone() {
             self.begin_carrying(&body, pose);
@@ -336,27 +340,40 @@ impl Mission {
             // (aisle's own: an acceleration over its limit that slowing down could not
             // remove) is driven all the same, and a new reference would not change it.
             let infeasible = (1..=5).contains(&report.exit_flag) || !report.timestamps_increasing;
+            let window = self.cfg.stall_timeout_s;
+            let stalled = !infeasible
+                && self
+                    .progress
+                    .stalled(now_s, &pose, &self.stage_target(pose), window);
             if report.exit_flag == 6 {
                 tracing::warn!(
                     "t = {now_s:.1} s: the controller's band exceeds an acceleration limit (exit flag 6)"
                 );
             }
-            if infeasible {
+            if infeasible || stalled {
                 self.replans += 1;
                 if self.replans + self.plan_failures > self.cfg.max_replans_per_leg {
+                    let why = if stalled {
+                        format!("made no progress for {window} s")
+                    } else {
+                        format!("stayed infeasible (exit flag {})", report.exit_flag)
+                    };
                     return self.fail(
                         now_s,
                         pose,
                         format!(
-                            "leg {} `{}`: the controller stayed infeasible (exit flag {}) after {} replans",
+                            "leg {} `{}`: the controller {why} after {} replans",
                             self.leg + 1,
                             self.leg_name(),
-                            report.exit_flag,
                             self.replans - 1
                         ),
                     );
                 }
+                if stalled {
+                    tracing::info!("t = {now_s:.1} s: no progress for {window} s: recovering");
+                }
                 self.cooldown = self.cfg.replan_cooldown_steps;
+                self.progress.reset(now_s);
                 return self.recover(pose);
             }
         }
@@ -436,6 +453,7 @@ impl Mission {
 }
 
 mod docking;
+mod progress;
 
 #[cfg(test)]
 mod tests;

@@ -51,7 +51,7 @@ impl Mission {
             let under = path.last().map_or(self.goal(), |p| p.pose);
             path.truncate(k + 1);
             let goal = path[k].pose;
-            self.stage = Stage::ToDock { under };
+            self.stage = Stage::ToDock { from: goal, under };
             return vec![Action::Follow {
                 reference: path,
                 goal,
@@ -81,7 +81,7 @@ impl Mission {
                 self.stage = Stage::Docking;
                 None
             }
-            Stage::ToDock { under } => {
+            Stage::ToDock { under, .. } => {
                 self.stage = Stage::Docking;
                 Some(vec![
                     self.mapper_control(),
@@ -111,6 +111,16 @@ impl Mission {
         }
     }
 
+    /// What the controller drives to in the current stage (stall detection).
+    pub(super) fn stage_target(&self, pose: Pose2) -> Pose2 {
+        match &self.stage {
+            Stage::Path => self.goal(),
+            Stage::ToDock { from, .. } => *from,
+            Stage::Docking => self.redo_target(pose),
+            Stage::Undocking { rest } => rest.first().map_or(pose, |p| p.pose),
+        }
+    }
+
     /// The controller stays infeasible: on a path, plan again with the detections (a
     /// docking leg chooses its side again); on a straight move, try the move again
     /// (something stands in the way; the replan count bounds the waiting).
@@ -133,12 +143,15 @@ impl Mission {
     }
 
     fn redo_docking(&self, pose: Pose2, footprint: Footprint, margin: f64) -> Action {
-        let under = self
-            .reference_paths
+        straight(self.redo_target(pose), footprint, margin)
+    }
+
+    /// Where the docking move ends: the last pose of the leg's plan.
+    fn redo_target(&self, pose: Pose2) -> Pose2 {
+        self.reference_paths
             .last()
             .and_then(|(_, p)| p.last())
-            .map_or(pose, |p| p.pose);
-        straight(under, footprint, margin)
+            .map_or(pose, |p| p.pose)
     }
 
     /// The robot takes `body` (standing under it at `robot`): remember how it sits.

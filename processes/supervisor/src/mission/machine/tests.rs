@@ -10,6 +10,7 @@ fn mission() -> Mission {
         leg_timeout_s: 100.0,
         max_replans_per_leg: 2,
         replan_cooldown_steps: 1,
+        stall_timeout_s: 10.0,
         update_rate_hz: 10.0,
         controller_period_s: 0.5,
         planner_timeout_s: 5.0,
