@@ -88,7 +88,22 @@ pub enum Action {
 
 /// Why a plan request failed, in the planner's words.
 #[derive(Debug, Clone, PartialEq)]
-pub struct PlanFailure(pub String);
+pub struct PlanFailure {
+    pub why: String,
+    /// The start is within the safety margin of something (in collision with the
+    /// margin, or cut off from everything at the search's first step): a plan with a
+    /// smaller margin may back the robot out.
+    pub start_blocked: bool,
+}
+
+impl PlanFailure {
+    pub fn new(why: impl Into<String>) -> PlanFailure {
+        PlanFailure {
+            why: why.into(),
+            start_blocked: false,
+        }
+    }
+}
 
 /// The controller's report for the current goal.
 #[derive(Debug, Clone, Copy, PartialEq)]

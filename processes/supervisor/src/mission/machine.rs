@@ -11,6 +11,9 @@ use super::events::{Action, ControllerReport, DockBody, PlanFailure, Planned};
 use aisle_geometry::{Footprint, PathPose, Pose2};
 use serde::{Deserialize, Serialize};
 
+/// The smallest fraction of the margin a backing-off plan keeps (two halvings).
+const MIN_MARGIN_SCALE: f64 = 0.25;
+
 /// Footprint and safety margin with and without the carried rack.
 #[derive(Debug, Clone, Copy)]
 pub struct Footprints {
@@ -105,6 +108,9 @@ pub struct Mission {
     stage: Stage,
     /// Whether the current stage is getting anywhere.
     progress: progress::Progress,
+    /// Fraction of the margin the current plan keeps: below 1 while backing out of a
+    /// margin the robot stands in; back to 1 with every new replan or leg.
+    margin_scale: f64,
     /// While set, the leg is on its straight departure to this pose.
     departure: Option<Pose2>,
     /// The controller has a reference path for the current leg.
@@ -131,6 +137,7 @@ impl Mission {
             carried_rel: None,
             stage: Stage::Path,
             progress: progress::Progress::default(),
+            margin_scale: 1.0,
             departure: None,
             has_reference: false,
             failure: None,
@@ -188,11 +195,15 @@ impl Mission {
         Pose2::new(g[0], g[1], g[2])
     }
 
+    /// The footprint and margin of the current load (the margin scaled down while
+    /// backing off).
     fn footprint(&self) -> (Footprint, f64) {
         if self.carrying {
-            (self.carrying_footprint(), self.footprints.carrying_margin)
+            let margin = self.footprints.carrying_margin * self.margin_scale;
+            (self.carrying_footprint(), margin)
         } else {
-            (self.footprints.alone, self.footprints.alone_margin)
+            let margin = self.footprints.alone_margin * self.margin_scale;
+            (self.footprints.alone, margin)
         }
     }
 
@@ -233,6 +244,7 @@ impl Mission {
         self.has_reference = false;
         self.stage = Stage::Path;
         self.progress.reset(now_s);
+        self.margin_scale = 1.0;
         let mut actions = Vec::new();
         if let Some(body) = self.spec().carry.clone() {
             self.begin_carrying(&body, pose);
@@ -273,12 +285,27 @@ impl Mission {
         }
         match result {
             Ok(planned) => {
+                if self.margin_scale < 1.0 {
+                    tracing::info!("t = {now_s:.1} s: backing off with a reduced margin");
+                }
                 self.phase = Phase::Driving;
                 self.has_reference = true;
                 self.reference_paths.push((self.leg, planned.path.clone()));
                 self.drive(planned)
             }
-            Err(PlanFailure(why)) => {
+            Err(failure) if failure.start_blocked && self.margin_scale > MIN_MARGIN_SCALE => {
+                // Back off rather than give up: plan again with half the margin, so
+                // the path leads out of the margin it stands in.
+                self.margin_scale = (0.5 * self.margin_scale).max(MIN_MARGIN_SCALE);
+                tracing::info!(
+                    "t = {now_s:.1} s: {}; planning with {:.0} % of the margin",
+                    failure.why,
+                    100.0 * self.margin_scale
+                );
+                vec![self.plan_action(pose, true)]
+            }
+            Err(PlanFailure { why, .. }) => {
+                self.margin_scale = 1.0;
                 self.plan_failures += 1;
                 // Without any reference the controller has nothing to drive: a first plan
                 // that fails (start or goal occupied, no path) ends the mission.
@@ -374,6 +401,7 @@ impl Mission {
                 }
                 self.cooldown = self.cfg.replan_cooldown_steps;
                 self.progress.reset(now_s);
+                self.margin_scale = 1.0;
                 return self.recover(pose);
             }
         }

@@ -139,18 +139,25 @@ impl Session {
                         if path.len() == n && n > 0 {
                             Ok(planned(path, &resp))
                         } else {
-                            Err(PlanFailure(
-                                "the planner's path is empty or malformed".into(),
-                            ))
+                            Err(PlanFailure::new("the planner's path is empty or malformed"))
                         }
                     }
-                    Some(s) => Err(PlanFailure(format!(
-                        "{} after {} expansions ({:.1} ms)",
-                        plan_status_text(s),
-                        resp.expansions,
-                        resp.solve_ns as f64 / 1e6
+                    Some(s) => Err(PlanFailure {
+                        why: format!(
+                            "{} after {} expansions ({:.1} ms)",
+                            plan_status_text(s),
+                            resp.expansions,
+                            resp.solve_ns as f64 / 1e6
+                        ),
+                        // "No path" before a second expansion: the start itself is cut
+                        // off (the heuristic's grid grows obstacles by the margin).
+                        start_blocked: s == PlanStatus::StartOccupied
+                            || (s == PlanStatus::NoPath && resp.expansions <= 1),
+                    }),
+                    None => Err(PlanFailure::new(format!(
+                        "unknown plan status {}",
+                        resp.status
                     ))),
-                    None => Err(PlanFailure(format!("unknown plan status {}", resp.status))),
                 });
             }
             self.supervise()?;
@@ -163,7 +170,7 @@ impl Session {
                 started = Instant::now();
             }
             if started.elapsed() > limit {
-                return Ok(Err(PlanFailure(format!(
+                return Ok(Err(PlanFailure::new(format!(
                     "the planner did not answer within {:.1} s",
                     limit.as_secs_f64()
                 ))));

@@ -186,7 +186,7 @@ fn an_unreachable_goal_fails_the_mission() {
     let mut m = mission();
     let p = Pose2::default();
     m.start_leg(0.0, p);
-    let a = m.on_plan(0.0, p, Err(PlanFailure("goal occupied".into())));
+    let a = m.on_plan(0.0, p, Err(PlanFailure::new("goal occupied")));
     assert_eq!(a, vec![Action::Halt]);
     assert!(m.failure().unwrap().contains("goal occupied"));
 }
@@ -204,7 +204,7 @@ fn a_failed_replan_keeps_the_old_reference_and_retries() {
     };
     m.on_controller(0.5, p, bad);
     assert!(
-        m.on_plan(0.5, p, Err(PlanFailure("no path".into())))
+        m.on_plan(0.5, p, Err(PlanFailure::new("no path")))
             .is_empty()
     );
     assert!(!m.is_finished());
@@ -368,4 +368,28 @@ fn a_pick_docks_straight_and_the_leg_after_the_drop_undocks_first() {
     let a = m.on_controller(6.0, drop, REACHED);
     assert_eq!(*a.last().unwrap(), Action::Halt);
     assert!(m.succeeded());
+}
+
+#[test]
+fn a_start_inside_the_margin_backs_off_with_a_smaller_margin_then_fails() {
+    let mut m = mission();
+    let p = Pose2::default();
+    m.start_leg(0.0, p);
+    let blocked = || PlanFailure {
+        why: "the start is in collision".into(),
+        start_blocked: true,
+    };
+    let a = m.on_plan(0.0, p, Err(blocked()));
+    assert!(
+        matches!(a[0], Action::Plan { margin, use_detections: true, .. } if (margin - 0.05).abs() < 1e-12),
+        "{a:?}"
+    );
+    let a = m.on_plan(0.0, p, Err(blocked()));
+    assert!(
+        matches!(a[0], Action::Plan { margin, .. } if (margin - 0.025).abs() < 1e-12),
+        "{a:?}"
+    );
+    // The smallest margin failing too ends the leg (it had no reference yet).
+    assert_eq!(m.on_plan(0.0, p, Err(blocked())), vec![Action::Halt]);
+    assert!(m.failure().unwrap().contains("start is in collision"));
 }
