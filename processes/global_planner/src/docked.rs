@@ -11,6 +11,10 @@ use crate::error::{PlanError, PlanErrorKind, PlanStats};
 use crate::search::{PlanRequest, Planner};
 use aisle_geometry::{Direction, GridView, PathPose, Pose2, wrap_angle};
 
+/// Fractions of `dock_run_in` tried in turn while every open side's pose outside is
+/// blocked.
+const RUN_IN_FRACTIONS: [f64; 3] = [1.0, 0.6, 0.3];
+
 /// A plan with its straight move: `path[split..]` is the docking move, or
 /// `path[..=split]` the undocking move.
 #[derive(Debug, Clone, PartialEq)]
@@ -32,77 +36,90 @@ impl Planner {
         map: &GridView,
         should_stop: &mut dyn FnMut() -> bool,
     ) -> Result<DockedPlan, PlanError> {
-        let params = DockParams {
-            run_in: self.config().dock_run_in,
-            clearance: self.config().dock_clearance,
-            step: self.config().validation_distance,
-        };
-        let moves = match site.kind {
-            DockKind::Dock => dock::entries(site, &req.goal, req.footprint, &params),
-            DockKind::Undock => dock::exits(site, &req.start, req.footprint, &params),
-        };
-        let mut stats = PlanStats::default();
-        let open: Vec<Straight> = moves
-            .into_iter()
-            .filter(|mv| dock::corridor_clear(site, mv, req.footprint, &params, map))
-            .collect();
-        if open.is_empty() {
-            return Err(PlanError {
-                kind: PlanErrorKind::NoOpenSide,
-                stats,
-            });
-        }
         let mut scratch = std::mem::take(&mut self.dock_scratch);
         let blocked = dock::with_body_blocked(map, &site.body, &mut scratch);
-        let mut best: Option<(f64, DockedPlan)> = None;
+        let mut expansions = 0;
         let mut failure: Option<PlanError> = None;
-        for mv in &open {
-            let leg = match site.kind {
-                DockKind::Dock => PlanRequest {
-                    goal: mv.from,
-                    ..*req
-                },
-                DockKind::Undock => PlanRequest {
-                    start: mv.to,
-                    ..*req
-                },
+        let mut result = None;
+        // A shorter run-in when the pose outside is blocked (a neighbouring rack): less
+        // room to line up, but the straight move still corrects what the path leaves.
+        for fraction in RUN_IN_FRACTIONS {
+            let params = DockParams {
+                run_in: self.config().dock_run_in * fraction,
+                clearance: self.config().dock_clearance,
+                step: self.config().validation_distance,
             };
-            match self.plan_with_stop(&leg, &blocked, should_stop) {
-                Ok(plan) => {
-                    stats.expansions += plan.stats.expansions;
-                    let cost = plan.stats.path_cost + self.straight_cost(mv);
-                    if best.as_ref().is_none_or(|(c, _)| cost < *c) {
-                        let joined = join(site.kind, mv, plan.path, params.step);
-                        best = Some((cost, joined_plan(joined, site.kind, plan.stats)));
+            let moves = match site.kind {
+                DockKind::Dock => dock::entries(site, &req.goal, req.footprint, &params),
+                DockKind::Undock => dock::exits(site, &req.start, req.footprint, &params),
+            };
+            let open = moves
+                .into_iter()
+                .filter(|mv| dock::corridor_clear(site, mv, req.footprint, &params, map));
+            let mut best: Option<(f64, DockedPlan)> = None;
+            let mut ends_blocked = true;
+            for mv in open {
+                let leg = match site.kind {
+                    DockKind::Dock => PlanRequest {
+                        goal: mv.from,
+                        ..*req
+                    },
+                    DockKind::Undock => PlanRequest {
+                        start: mv.to,
+                        ..*req
+                    },
+                };
+                match self.plan_with_stop(&leg, &blocked, should_stop) {
+                    Ok(plan) => {
+                        expansions += plan.stats.expansions;
+                        let cost = plan.stats.path_cost + self.straight_cost(&mv);
+                        if best.as_ref().is_none_or(|(c, _)| cost < *c) {
+                            let joined = join(site.kind, &mv, plan.path, params.step);
+                            best = Some((cost, joined_plan(joined, site.kind, plan.stats)));
+                        }
                     }
-                }
-                Err(e) => {
-                    stats.expansions += e.stats.expansions;
-                    if failure.is_none_or(|f| e.stats.expansions > f.stats.expansions) {
-                        failure = Some(e);
-                    }
-                    if e.kind == PlanErrorKind::Stopped {
-                        break;
+                    Err(e) => {
+                        expansions += e.stats.expansions;
+                        ends_blocked &= matches!(
+                            e.kind,
+                            PlanErrorKind::GoalOccupied | PlanErrorKind::StartOccupied
+                        );
+                        if failure.is_none_or(|f| e.stats.expansions >= f.stats.expansions) {
+                            failure = Some(e);
+                        }
+                        if e.kind == PlanErrorKind::Stopped {
+                            break;
+                        }
                     }
                 }
             }
+            if let Some((_, plan)) = best {
+                result = Some(plan);
+                break;
+            }
+            if !ends_blocked {
+                break;
+            }
         }
         self.dock_scratch = scratch;
-        match (best, failure) {
-            (Some((_, mut plan)), _) => {
-                plan.stats.expansions = stats.expansions;
+        match (result, failure) {
+            (Some(mut plan), _) => {
+                plan.stats.expansions = expansions;
                 Ok(plan)
             }
             (None, Some(e)) => Err(PlanError {
                 kind: e.kind,
                 stats: PlanStats {
-                    expansions: stats.expansions,
+                    expansions,
                     ..e.stats
                 },
             }),
             (None, None) => Err(PlanError {
                 kind: PlanErrorKind::NoOpenSide,
-                stats,
+                stats: PlanStats {
+                    expansions,
+                    ..PlanStats::default()
+                },
             }),
         }
     }
@@ -166,5 +183,106 @@ fn joined_plan(
         split,
         kind,
         stats,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::PlannerConfig;
+    use crate::dock::Placed;
+    use aisle_geometry::{Footprint, GridMap};
+    use std::f64::consts::FRAC_PI_2;
+
+    fn rack(pose: Pose2) -> (Placed, Vec<Placed>) {
+        let legs = [
+            (0.415, 0.375),
+            (-0.415, 0.375),
+            (-0.415, -0.375),
+            (0.415, -0.375),
+        ]
+        .iter()
+        .map(|&(x, y)| {
+            let (wx, wy) = pose.transform_point(x, y);
+            Placed {
+                pose: Pose2::new(wx, wy, pose.theta),
+                footprint: Footprint::new(0.05, 0.05),
+            }
+        })
+        .collect();
+        let footprint = Footprint::new(0.88, 0.8);
+        (Placed { pose, footprint }, legs)
+    }
+
+    fn request(start: Pose2, goal: Pose2) -> PlanRequest {
+        PlanRequest {
+            start,
+            goal,
+            footprint: Footprint::new(0.508, 0.43),
+            margin: 0.1,
+            max_expansions: 100_000,
+        }
+    }
+
+    #[test]
+    fn a_free_heading_dock_enters_the_side_facing_the_robot_straight() {
+        let map = GridMap::new_free(-5.0, -5.0, 0.1, 10.0, 10.0).unwrap();
+        let (body, legs) = rack(Pose2::new(0.0, 2.0, FRAC_PI_2));
+        let site = DockSite {
+            kind: DockKind::Dock,
+            body,
+            parts: &legs,
+            free_heading: true,
+        };
+        let mut planner = Planner::new(PlannerConfig::default()).unwrap();
+        let req = request(Pose2::new(0.0, -3.0, FRAC_PI_2), body.pose);
+        let plan = planner
+            .plan_docked(&req, &site, &map.view(), &mut || false)
+            .unwrap();
+        // From the south: the straight part runs north along x = 0 into the centre.
+        let last = plan.path.last().unwrap().pose;
+        assert!((last.x, last.y) == (0.0, 2.0) && (last.theta - FRAC_PI_2).abs() < 1e-9);
+        for p in &plan.path[plan.split..] {
+            assert!(p.pose.x.abs() < 1e-9 && (p.pose.theta - FRAC_PI_2).abs() < 1e-9);
+        }
+        // Nothing before the straight part comes near the rack.
+        let robot = Footprint::new(0.508, 0.43);
+        for p in &plan.path[..=plan.split] {
+            assert!(
+                !robot.overlaps(&p.pose, &body.footprint, &body.pose),
+                "{p:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn an_undock_leaves_backwards_when_the_goal_is_behind_and_blocked_sides_are_refused() {
+        let map = GridMap::new_free(-5.0, -5.0, 0.1, 10.0, 10.0).unwrap();
+        let (body, legs) = rack(Pose2::new(0.0, 0.0, 0.0));
+        let site = DockSite {
+            kind: DockKind::Undock,
+            body,
+            parts: &legs,
+            free_heading: false,
+        };
+        let mut planner = Planner::new(PlannerConfig::default()).unwrap();
+        let req = request(body.pose, Pose2::new(-3.5, 0.0, 0.0));
+        let plan = planner
+            .plan_docked(&req, &site, &map.view(), &mut || false)
+            .unwrap();
+        assert_eq!(plan.path[0].direction, Direction::Reverse);
+        assert!(plan.path[plan.split].pose.x < -1.0);
+        // Boxed in on both ends: no way out.
+        let mut walled = map.clone();
+        for y in -10..10 {
+            for x in [-1.0, 1.0] {
+                let c = walled.view().cell_of(x, 0.05 * y as f64);
+                walled.set(c, aisle_geometry::OCCUPIED_STATIC);
+            }
+        }
+        let e = planner
+            .plan_docked(&req, &site, &walled.view(), &mut || false)
+            .unwrap_err();
+        assert_eq!(e.kind, PlanErrorKind::NoOpenSide);
     }
 }
