@@ -90,17 +90,18 @@ pub enum Action {
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlanFailure {
     pub why: String,
-    /// The start is within the safety margin of something (in collision with the
-    /// margin, or cut off from everything at the search's first step): a plan with a
-    /// smaller margin may back the robot out.
-    pub start_blocked: bool,
+    /// The margin may be what failed: the start is within it (in collision with the
+    /// margin), or no path keeps it, or the search ran out of budget looking for one
+    /// (a gap the footprint fits through, but not with the whole margin). A plan with a smaller margin may back the robot out or
+    /// through.
+    pub margin_bound: bool,
 }
 
 impl PlanFailure {
     pub fn new(why: impl Into<String>) -> PlanFailure {
         PlanFailure {
             why: why.into(),
-            start_blocked: false,
+            margin_bound: false,
         }
     }
 }

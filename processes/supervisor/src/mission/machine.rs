@@ -108,8 +108,8 @@ pub struct Mission {
     stage: Stage,
     /// Whether the current stage is getting anywhere.
     progress: progress::Progress,
-    /// Fraction of the margin the current plan keeps: below 1 while backing out of a
-    /// margin the robot stands in; back to 1 with every new replan or leg.
+    /// Fraction of the margin the leg's plans keep: below 1 once the leg had to back
+    /// out of the margin or squeeze through a gap; back to 1 with the next leg.
     margin_scale: f64,
     /// While set, the leg is on its straight departure to this pose.
     departure: Option<Pose2>,
@@ -293,9 +293,10 @@ impl Mission {
                 self.reference_paths.push((self.leg, planned.path.clone()));
                 self.drive(planned)
             }
-            Err(failure) if failure.start_blocked && self.margin_scale > MIN_MARGIN_SCALE => {
+            Err(failure) if failure.margin_bound && self.margin_scale > MIN_MARGIN_SCALE => {
                 // Back off rather than give up: plan again with half the margin, so
-                // the path leads out of the margin it stands in.
+                // the path leads out of the margin the robot stands in, or through a
+                // gap the footprint fits with less of it.
                 self.margin_scale = (0.5 * self.margin_scale).max(MIN_MARGIN_SCALE);
                 tracing::info!(
                     "t = {now_s:.1} s: {}; planning with {:.0} % of the margin",
@@ -401,7 +402,6 @@ impl Mission {
                 }
                 self.cooldown = self.cfg.replan_cooldown_steps;
                 self.progress.reset(now_s);
-                self.margin_scale = 1.0;
                 return self.recover(pose);
             }
         }

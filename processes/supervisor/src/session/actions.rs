@@ -149,10 +149,14 @@ impl Session {
                             resp.expansions,
                             resp.solve_ns as f64 / 1e6
                         ),
-                        // "No path" before a second expansion: the start itself is cut
-                        // off (the heuristic's grid grows obstacles by the margin).
-                        start_blocked: s == PlanStatus::StartOccupied
-                            || (s == PlanStatus::NoPath && resp.expansions <= 1),
+                        // The start within the margin, no path that keeps it (also "no
+                        // path" at the first expansion: the heuristic's grid grows
+                        // obstacles by the margin and cut the start off), or a search
+                        // that ran out threading the whole margin through a tight gap.
+                        margin_bound: matches!(
+                            s,
+                            PlanStatus::StartOccupied | PlanStatus::NoPath | PlanStatus::Timeout
+                        ),
                     }),
                     None => Err(PlanFailure::new(format!(
                         "unknown plan status {}",

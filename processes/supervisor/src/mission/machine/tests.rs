@@ -377,7 +377,7 @@ fn a_start_inside_the_margin_backs_off_with_a_smaller_margin_then_fails() {
     m.start_leg(0.0, p);
     let blocked = || PlanFailure {
         why: "the start is in collision".into(),
-        start_blocked: true,
+        margin_bound: true,
     };
     let a = m.on_plan(0.0, p, Err(blocked()));
     assert!(
