@@ -98,3 +98,61 @@ fn a_start_inside_the_storage_area() {
                 [[leg]]\nname = \"carry\"\ngoal = [6.0, -7.0, 0.0]\ncarry = \"rack2a\"\n";
     succeeds("storage-start", [3.3, 10.0, FRAC_PI_2], legs);
 }
+
+/// The seed mission with an unseen barrier across the warehouse at y = 6 m whose only
+/// gap, on the carrying leg's way, is 5 cm wider than the carrying footprint (0.8 m)
+/// plus its margin (2 x 0.4 m): the leg must find and drive through it.
+#[test]
+fn a_carrying_leg_through_a_gap_5_cm_wider_than_footprint_and_margin() {
+    let dir = TestDir::new("gap");
+    let cfg = dir.path("config");
+    std::fs::create_dir_all(&cfg).unwrap();
+    for e in std::fs::read_dir(config_dir()).unwrap().flatten() {
+        if e.path().is_file() {
+            std::fs::copy(e.path(), cfg.join(e.file_name())).unwrap();
+        }
+    }
+    let (gap, centre, y) = (0.8 + 2.0 * 0.4 + 0.05, 3.0, 6.0);
+    let (west, east) = (-4.8, 14.8);
+    let (a_end, b_start) = (centre - gap / 2.0, centre + gap / 2.0);
+    let barrier = |name: &str, from: f64, to: f64| {
+        format!(
+            "\n[[body]]\nname = \"{name}\"\nkind = \"barrier\"\nstatic = false\n\
+             pose = [{}, {y}, 0.0]\nsize = [{}, 0.2, 1.0]\n",
+            (from + to) / 2.0,
+            to - from
+        )
+    };
+    let mut scene = std::fs::read_to_string(cfg.join("warehouse.toml")).unwrap();
+    scene += &barrier("barrier_west", west, a_end);
+    scene += &barrier("barrier_east", b_start, east);
+    std::fs::write(cfg.join("warehouse.toml"), scene).unwrap();
+    let report = dir.path("report.json");
+    let out = run(
+        &dir.run_dir(),
+        &[
+            "run",
+            "--quiet",
+            "--config-dir",
+            cfg.to_str().unwrap(),
+            "--report",
+            report.to_str().unwrap(),
+        ],
+    );
+    let r: aisle_supervisor::report::RunReport =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert!(
+        out.status.success() && r.success && r.collisions == 0,
+        "{:?}\n{}",
+        r.failure,
+        String::from_utf8_lossy(&out.stdout)
+    );
+    // The carrying leg crossed y = 6 through the gap.
+    let carry = &r.legs[2];
+    let crossing = r
+        .driven_path
+        .windows(2)
+        .find(|w| w[0][0] >= carry.start_s && w[0][2] >= y && w[1][2] < y)
+        .expect("the carrying leg crosses the barrier's line");
+    assert!((crossing[1][1] - centre).abs() < gap / 2.0, "{crossing:?}");
+}

@@ -207,34 +207,38 @@ pub fn with_body_blocked<'s>(
     }
 }
 
+/// The seed's pallet rack (0.88 x 0.8 m, legs 0.05 m at +-0.415, +-0.375) at `pose`:
+/// its footprint and legs, for tests.
+#[cfg(test)]
+pub(crate) fn seed_rack(pose: Pose2) -> (Placed, Vec<Placed>) {
+    let legs = [
+        (0.415, 0.375),
+        (-0.415, 0.375),
+        (-0.415, -0.375),
+        (0.415, -0.375),
+    ]
+    .iter()
+    .map(|&(x, y)| {
+        let (wx, wy) = pose.transform_point(x, y);
+        Placed {
+            pose: Pose2::new(wx, wy, pose.theta),
+            footprint: Footprint::new(0.05, 0.05),
+        }
+    })
+    .collect();
+    let body = Placed {
+        pose,
+        footprint: Footprint::new(0.88, 0.8),
+    };
+    (body, legs)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use aisle_geometry::GridMap;
 
-    /// The seed's pallet rack (0.88 x 0.8 m, legs 0.05 m at +-0.415, +-0.375) at `pose`.
-    fn rack(pose: Pose2) -> (Placed, Vec<Placed>) {
-        let legs = [
-            (0.415, 0.375),
-            (-0.415, 0.375),
-            (-0.415, -0.375),
-            (0.415, -0.375),
-        ]
-        .iter()
-        .map(|&(x, y)| {
-            let (wx, wy) = pose.transform_point(x, y);
-            Placed {
-                pose: Pose2::new(wx, wy, pose.theta),
-                footprint: Footprint::new(0.05, 0.05),
-            }
-        })
-        .collect();
-        let body = Placed {
-            pose,
-            footprint: Footprint::new(0.88, 0.8),
-        };
-        (body, legs)
-    }
+    use super::seed_rack as rack;
 
     const ROBOT: Footprint = Footprint::new(0.508, 0.43);
     const P: DockParams = DockParams {

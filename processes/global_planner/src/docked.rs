@@ -190,29 +190,10 @@ fn joined_plan(
 mod tests {
     use super::*;
     use crate::PlannerConfig;
-    use crate::dock::Placed;
     use aisle_geometry::{Footprint, GridMap};
     use std::f64::consts::FRAC_PI_2;
 
-    fn rack(pose: Pose2) -> (Placed, Vec<Placed>) {
-        let legs = [
-            (0.415, 0.375),
-            (-0.415, 0.375),
-            (-0.415, -0.375),
-            (0.415, -0.375),
-        ]
-        .iter()
-        .map(|&(x, y)| {
-            let (wx, wy) = pose.transform_point(x, y);
-            Placed {
-                pose: Pose2::new(wx, wy, pose.theta),
-                footprint: Footprint::new(0.05, 0.05),
-            }
-        })
-        .collect();
-        let footprint = Footprint::new(0.88, 0.8);
-        (Placed { pose, footprint }, legs)
-    }
+    use crate::dock::seed_rack as rack;
 
     fn request(start: Pose2, goal: Pose2) -> PlanRequest {
         PlanRequest {

@@ -13,6 +13,8 @@ use serde::{Deserialize, Serialize};
 
 /// The smallest fraction of the margin a backing-off plan keeps (two halvings).
 const MIN_MARGIN_SCALE: f64 = 0.25;
+/// The smallest margin, m, a backing-off plan keeps.
+const MIN_BACKED_OFF_MARGIN: f64 = 0.05;
 
 /// Footprint and safety margin with and without the carried rack.
 #[derive(Debug, Clone, Copy)]
@@ -198,12 +200,15 @@ impl Mission {
     /// The footprint and margin of the current load (the margin scaled down while
     /// backing off).
     fn footprint(&self) -> (Footprint, f64) {
+        // Backing off never goes below MIN_BACKED_OFF_MARGIN: the controller's grid
+        // (0.1 m cells) and soft constraints need some room (a sweep measured contacts
+        // with 0.025 m).
+        let scaled = |m: f64| (m * self.margin_scale).max(m.min(MIN_BACKED_OFF_MARGIN));
         if self.carrying {
-            let margin = self.footprints.carrying_margin * self.margin_scale;
+            let margin = scaled(self.footprints.carrying_margin);
             (self.carrying_footprint(), margin)
         } else {
-            let margin = self.footprints.alone_margin * self.margin_scale;
-            (self.footprints.alone, margin)
+            (self.footprints.alone, scaled(self.footprints.alone_margin))
         }
     }
 
@@ -293,7 +298,11 @@ impl Mission {
                 self.reference_paths.push((self.leg, planned.path.clone()));
                 self.drive(planned)
             }
-            Err(failure) if failure.margin_bound && self.margin_scale > MIN_MARGIN_SCALE => {
+            Err(failure)
+                if failure.margin_bound
+                    && self.margin_scale > MIN_MARGIN_SCALE
+                    && self.footprint().1 > MIN_BACKED_OFF_MARGIN =>
+            {
                 // Back off rather than give up: plan again with half the margin, so
                 // the path leads out of the margin the robot stands in, or through a
                 // gap the footprint fits with less of it.
