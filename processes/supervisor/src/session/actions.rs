@@ -122,6 +122,9 @@ impl Session {
             fill_dock(m, ask.dock.as_ref());
         };
         let mut id = self.ports.planner.send(stamp, request)?;
+        // Set while a restarted planner has still to be asked: one that is not ready
+        // may not be listening yet, and the request would be lost.
+        let mut resend = !self.health.ready.contains(&NodeKind::GlobalPlanner);
         let mut started = Instant::now();
         // The planner bounds its own time; allow it a second more to answer.
         let limit = timeout + Duration::from_secs(1);
@@ -166,10 +169,16 @@ impl Session {
             }
             self.supervise()?;
             if self.health.restarted.contains(&NodeKind::GlobalPlanner) {
-                // The planner died with the request: ask its successor.
+                // The planner died with the request (or before it, and its successor
+                // was not listening yet): ask the successor once it is ready.
                 self.health
                     .restarted
                     .retain(|k| *k != NodeKind::GlobalPlanner);
+                resend = true;
+                started = Instant::now();
+            }
+            if resend && self.health.ready.contains(&NodeKind::GlobalPlanner) {
+                resend = false;
                 id = self.ports.planner.send(stamp, request)?;
                 started = Instant::now();
             }
