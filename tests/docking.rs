@@ -25,27 +25,28 @@ fn succeeds(name: &str, start: [f64; 3], legs: &str) {
     );
     let mission = dir.path("mission.toml");
     std::fs::write(&mission, text).unwrap();
+    let m = mission.to_str().unwrap();
+    succeeds_with(name, &dir, &["--mission", m]);
+}
+
+/// `aisle run --quiet --report .. <args>` in `dir`: asserts success with no collision and
+/// returns the report.
+fn succeeds_with(name: &str, dir: &TestDir, args: &[&str]) -> aisle_supervisor::report::RunReport {
     let report = dir.path("report.json");
-    let out = run(
-        &dir.run_dir(),
-        &[
-            "run",
-            "--quiet",
-            "--mission",
-            mission.to_str().unwrap(),
-            "--report",
-            report.to_str().unwrap(),
-        ],
-    );
+    let mut all = vec!["run", "--quiet", "--report", report.to_str().unwrap()];
+    all.extend_from_slice(args);
+    let out = run(&dir.run_dir(), &all);
     let r: aisle_supervisor::report::RunReport =
         serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     assert!(
         out.status.success() && r.success && r.collisions == 0,
-        "{name}: {:?} collisions {}\n{}",
+        "{name}: {:?} collisions {}\n{}\n{}",
         r.failure,
         r.collisions,
+        String::from_utf8_lossy(&out.stdout),
         String::from_utf8_lossy(&out.stderr)
     );
+    r
 }
 
 /// Picks `name` entering with heading `h` (driving forwards), carries it to the seed's
@@ -127,26 +128,7 @@ fn a_carrying_leg_through_a_gap_5_cm_wider_than_footprint_and_margin() {
     scene += &barrier("barrier_west", west, a_end);
     scene += &barrier("barrier_east", b_start, east);
     std::fs::write(cfg.join("warehouse.toml"), scene).unwrap();
-    let report = dir.path("report.json");
-    let out = run(
-        &dir.run_dir(),
-        &[
-            "run",
-            "--quiet",
-            "--config-dir",
-            cfg.to_str().unwrap(),
-            "--report",
-            report.to_str().unwrap(),
-        ],
-    );
-    let r: aisle_supervisor::report::RunReport =
-        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
-    assert!(
-        out.status.success() && r.success && r.collisions == 0,
-        "{:?}\n{}",
-        r.failure,
-        String::from_utf8_lossy(&out.stdout)
-    );
+    let r = succeeds_with("gap", &dir, &["--config-dir", cfg.to_str().unwrap()]);
     // The carrying leg crossed y = 6 through the gap.
     let carry = &r.legs[2];
     let crossing = r

@@ -159,23 +159,28 @@ pub fn corridor_clear(
         {
             return false;
         }
-        let r = swept.circumscribed_radius();
-        let lo = map.cell_of(at.x - r, at.y - r);
-        let hi = map.cell_of(at.x + r, at.y + r);
-        for iy in lo.iy..=hi.iy {
-            for ix in lo.ix..=hi.ix {
-                let c = aisle_geometry::CellIndex { ix, iy };
-                let (cx, cy) = map.cell_center(c);
-                if swept.contains(&at, cx, cy)
-                    && !body_zone.contains(&site.body.pose, cx, cy)
-                    && map.occupied_or_outside(c)
-                {
-                    return false;
-                }
-            }
-        }
-        true
+        !cells_under(map, &swept, &at).any(|(c, cx, cy)| {
+            !body_zone.contains(&site.body.pose, cx, cy) && map.occupied_or_outside(c)
+        })
     })
+}
+
+/// The cells (with their centres) whose centre lies in `rect` placed at `at`; cells
+/// beyond the grid included (the caller decides what they mean).
+fn cells_under<'m>(
+    map: &'m GridView,
+    rect: &'m Footprint,
+    at: &'m Pose2,
+) -> impl Iterator<Item = (aisle_geometry::CellIndex, f64, f64)> + 'm {
+    let r = rect.circumscribed_radius();
+    let lo = map.cell_of(at.x - r, at.y - r);
+    let hi = map.cell_of(at.x + r, at.y + r);
+    (lo.iy..=hi.iy)
+        .flat_map(move |iy| (lo.ix..=hi.ix).map(move |ix| aisle_geometry::CellIndex { ix, iy }))
+        .filter_map(move |c| {
+            let (cx, cy) = map.cell_center(c);
+            rect.contains(at, cx, cy).then_some((c, cx, cy))
+        })
 }
 
 /// `map` with every cell whose centre lies within the body's footprint (grown by half a
@@ -189,16 +194,9 @@ pub fn with_body_blocked<'s>(
     scratch.clear();
     scratch.extend_from_slice(map.cells);
     let grown = body.footprint.inflated(0.5 * map.resolution);
-    let r = grown.circumscribed_radius();
-    let lo = map.cell_of(body.pose.x - r, body.pose.y - r);
-    let hi = map.cell_of(body.pose.x + r, body.pose.y + r);
-    for iy in lo.iy..=hi.iy {
-        for ix in lo.ix..=hi.ix {
-            let c = aisle_geometry::CellIndex { ix, iy };
-            let (cx, cy) = map.cell_center(c);
-            if map.contains_cell(c) && grown.contains(&body.pose, cx, cy) {
-                scratch[iy as usize * map.width + ix as usize] = OCCUPIED_STATIC;
-            }
+    for (c, _, _) in cells_under(map, &grown, &body.pose) {
+        if map.contains_cell(c) {
+            scratch[c.iy as usize * map.width + c.ix as usize] = OCCUPIED_STATIC;
         }
     }
     GridView {
