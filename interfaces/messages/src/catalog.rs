@@ -16,6 +16,9 @@ pub const MAX_GRID_SIDE: usize = 1024;
 pub const MAX_GRID_CELLS: usize = MAX_GRID_SIDE * MAX_GRID_SIDE;
 /// Parts of a docking body a plan request can name (a rack's four legs, and more).
 pub const MAX_DOCK_PARTS: usize = 8;
+/// Parts of bodies set down by the mission the mapper keeps as known obstacles (four
+/// racks' worth of `MAX_DOCK_PARTS`).
+pub const MAX_PLACED_PARTS: usize = 4 * MAX_DOCK_PARTS;
 /// Paths up to 4096 poses.
 pub const MAX_PATH_POSES: usize = 4096;
 /// Command timelines (and predicted poses) up to 512 entries.
@@ -185,11 +188,17 @@ message!(
 
 message!(
     /// Tells the mapper which footprints are not obstacles: the rack being approached for
-    /// a pick (map frame) and the carried rack (relative to the robot base).
-    MapperControl = "aisle.MapperControl.v1" size 144 {
+    /// a pick (map frame) and the carried rack (relative to the robot base); and which
+    /// are, whatever the lidar sees: the parts (legs) of bodies the mission set down
+    /// (map frame), which the robot cannot see once it has driven out from under them.
+    MapperControl = "aisle.MapperControl.v2" size 1688 {
         header: Header,
         ignore: RectMsg,
         carried: RectMsg,
+        /// How many of `placed` hold parts.
+        placed_count: u32,
+        _pad: u32,
+        placed: [RectMsg; MAX_PLACED_PARTS],
     }
 );
 

@@ -6,6 +6,7 @@
 //! - [`ros_map`]: ROS map_server YAML + PGM in and out, so users can bring their own map.
 //! - [`obstacle_layer`]: lidar returns become `OCCUPIED_DETECTED` cells; rays clear them.
 //! - [`export`]: `aisle map export`, the scene's static map as YAML + PGM.
+//! - `placed`: the legs of bodies the mission set down, static cells no ray clears.
 //! - [`local_map`]: the window centred on the robot, written into a caller buffer.
 //! - [`Mapper`]: the object the node drives, tying the above together.
 //!
@@ -35,6 +36,7 @@ pub mod local_map;
 mod mapper;
 pub mod node;
 pub mod obstacle_layer;
+mod placed;
 #[cfg(test)]
 mod ray;
 pub mod ros_map;

@@ -9,10 +9,13 @@ use crate::config::{MAX_GRID_SIDE, MapConfig};
 use crate::error::MapError;
 use crate::local_map::{LocalMapInfo, extract_local};
 use crate::obstacle_layer::{ObstacleLayer, Scan, ScanStats};
+use crate::placed::PlacedLayer;
 use crate::ros_map::read_ros_map;
 use crate::static_map::static_map_from_scene;
 use aisle_config::scene::Scene;
-use aisle_geometry::{FREE, GridMap, GridView, OCCUPIED_DETECTED, OCCUPIED_STATIC};
+use aisle_geometry::{
+    FREE, Footprint, GridMap, GridView, OCCUPIED_DETECTED, OCCUPIED_STATIC, Pose2,
+};
 use std::path::Path;
 
 /// The static map the configuration asks for: the ROS map in `cfg.ros_map` when set
@@ -27,7 +30,9 @@ pub fn load_static_map(cfg: &MapConfig, scene_path: &Path) -> Result<GridMap, Ma
 
 #[derive(Debug, Clone)]
 pub struct Mapper {
+    /// The scene's static cells plus the parts of bodies set down (`placed`).
     static_map: GridMap,
+    placed: PlacedLayer,
     /// Static cells plus detections: what is published as the global map.
     global: GridMap,
     layer: ObstacleLayer,
@@ -69,6 +74,7 @@ impl Mapper {
         }
         Ok(Self {
             global: static_map.clone(),
+            placed: PlacedLayer::new(static_map.clone()),
             static_map,
             layer: ObstacleLayer::new(&cfg.obstacles, beams)?,
             local_side,
@@ -96,6 +102,24 @@ impl Mapper {
             self.version += 1;
         }
         Ok(stats)
+    }
+
+    /// Makes `parts` (map frame: the legs of bodies set down) known obstacles, static
+    /// cells no ray clears; parts no longer named are lifted. Bumps the version when the
+    /// map changed. Allocates only when the set differs from the last one.
+    pub fn set_placed(&mut self, parts: &[(Pose2, Footprint)]) -> bool {
+        let changed = self
+            .placed
+            .set(parts, &mut self.static_map, &mut self.global);
+        if changed {
+            self.version += 1;
+        }
+        changed
+    }
+
+    /// The parts [`Mapper::set_placed`] last made known.
+    pub fn placed(&self) -> &[(Pose2, Footprint)] {
+        self.placed.parts()
     }
 
     /// Static cells plus detections.

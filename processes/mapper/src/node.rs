@@ -4,7 +4,8 @@
 //!
 //! What to ignore comes from the supervisor's `MapperControl` (history 1): the rack
 //! being approached (map frame) and the carried rack (robot frame). The robot's own
-//! footprint is always ignored.
+//! footprint is always ignored. The same message names the legs of racks the mission
+//! set down, which the map keeps as known obstacles (`Mapper::set_placed`).
 //!
 //! Adapter only: the mapping is [`crate::Mapper`]; the loop around it is the node
 //! runtime's (`aisle_node::run`).
@@ -66,6 +67,8 @@ pub struct MapperStage {
     last_tick: Option<u64>,
     ignore: Option<IgnoreZone>,
     carried: Option<IgnoreZone>,
+    /// The placed parts of the newest control message (capacity fixed: no allocation).
+    placed: Vec<(Pose2, Footprint)>,
     published_version: u64,
 }
 
@@ -107,6 +110,7 @@ impl MapperStage {
             last_tick: None,
             ignore: None,
             carried: None,
+            placed: Vec::with_capacity(aisle_messages::MAX_PLACED_PARTS),
         })
     }
 
@@ -229,6 +233,16 @@ impl Stage for MapperStage {
         if let Some(c) = io.latest(topics::MAPPER_CONTROL)? {
             self.ignore = zone(&c.ignore);
             self.carried = zone(&c.carried);
+            let n = (c.placed_count as usize).min(c.placed.len());
+            self.placed.clear();
+            self.placed.extend(
+                c.placed[..n]
+                    .iter()
+                    .filter_map(zone)
+                    .filter(|z| z.pose.is_finite())
+                    .map(|z| (z.pose, z.footprint)),
+            );
+            self.mapper.set_placed(&self.placed);
         }
         let status = self.integrate(cloud);
         self.publish_maps(io, Stamp::of(&cloud.header), cloud.robot_pose.into())?;
@@ -315,5 +329,41 @@ mod tests {
         stage.restore(&io, &ctx()).unwrap();
         assert_eq!(stage.mapper.version(), 9);
         assert!(w > 0 && h > 0);
+    }
+
+    #[test]
+    fn legs_named_placed_are_static_cells_of_the_published_maps_until_dropped_from_the_list() {
+        let dir = aisle_config::testing::shipped_dir();
+        let mut stage = MapperStage::new(&dir).unwrap();
+        let io = MemIo::new();
+        stage.start(&io, &ctx()).unwrap();
+        // A free spot of the shipped warehouse: the start pose's surroundings.
+        let leg = RectMsg {
+            pose: Pose2::new(1.0, 1.0, 0.3).into(),
+            length: 0.1,
+            width: 0.1,
+            valid: 1,
+            _pad: [0; 7],
+        };
+        let cell_at = |io: &MemIo, n: usize| {
+            io.published(topics::GLOBAL_MAP, n, |m| {
+                let v = m.view().unwrap();
+                let c = v.cell_of(1.0, 1.0);
+                v.cells[c.iy as usize * v.width + c.ix as usize]
+            })
+            .unwrap()
+        };
+        assert_eq!(cell_at(&io, 0), aisle_geometry::FREE);
+        io.push(topics::MAPPER_CONTROL, |m| {
+            m.placed[0] = leg;
+            m.placed_count = 1;
+        });
+        stage.process(&cloud(1), &io).unwrap();
+        let n = io.published_len(topics::GLOBAL_MAP);
+        assert_eq!(n, 2, "the map changed, so it is published");
+        assert_eq!(cell_at(&io, 1), aisle_geometry::OCCUPIED_STATIC);
+        io.push(topics::MAPPER_CONTROL, |m| m.placed_count = 0);
+        stage.process(&cloud(2), &io).unwrap();
+        assert_eq!(cell_at(&io, 2), aisle_geometry::FREE);
     }
 }

@@ -77,10 +77,12 @@ pub enum Action {
     },
     Attach(String),
     Detach,
-    /// The mapper's ignore rectangle (map frame) and carried rectangle (robot frame).
+    /// The mapper's ignore rectangle (map frame) and carried rectangle (robot frame),
+    /// and the parts of bodies set down it keeps as obstacles (map frame).
     MapperControl {
         ignore: Option<(Pose2, Footprint)>,
         carried: Option<Footprint>,
+        placed: Vec<(Pose2, Footprint)>,
     },
     /// Stop the robot and the controller: the mission ended.
     Halt,

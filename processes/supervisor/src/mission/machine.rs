@@ -107,6 +107,8 @@ pub struct Mission {
     under: Option<DockBody>,
     /// The carried body's pose relative to the robot (from the pick).
     carried_rel: Option<Pose2>,
+    /// Bodies the mission set down, by name, where they stand now.
+    placed: Vec<(String, DockBody)>,
     stage: Stage,
     /// Whether the current stage is getting anywhere.
     progress: progress::Progress,
@@ -137,6 +139,7 @@ impl Mission {
             carrying: false,
             under: None,
             carried_rel: None,
+            placed: Vec::new(),
             stage: Stage::Path,
             progress: progress::Progress::default(),
             margin_scale: 1.0,
@@ -216,28 +219,10 @@ impl Mission {
         self.bodies.iter().find(|b| b.name == name)
     }
 
-    /// The approached body where the scene puts it.
+    /// The approached body where it stands (where the mission set it down, else where
+    /// the scene puts it).
     fn approached(&self) -> Option<DockBody> {
-        let b = self.body(self.spec().approach.as_deref()?)?;
-        Some(b.placed_at(b.pose))
-    }
-
-    /// What the mapper ignores: the body the robot is under or about to drive under
-    /// (only once the straight move begins: before, its legs are obstacles like any),
-    /// and the carried one.
-    fn mapper_control(&self) -> Action {
-        let approached = match self.stage {
-            Stage::Docking => self.approached(),
-            _ if self.phase == Phase::Rotating => self.approached(),
-            _ => None,
-        };
-        let ignore = self
-            .under
-            .clone()
-            .or(approached)
-            .map(|b| (b.pose, b.footprint));
-        let carried = self.carrying.then(|| self.carried_footprint()).flatten();
-        Action::MapperControl { ignore, carried }
+        self.standing(self.spec().approach.as_deref()?)
     }
 
     /// Begins the current leg at sim time `now_s` from `pose`.
@@ -465,6 +450,7 @@ impl Mission {
             actions.push(Action::MapperControl {
                 ignore: None,
                 carried: None,
+                placed: self.placed_parts(None),
             });
             actions.push(Action::Halt);
             return actions;

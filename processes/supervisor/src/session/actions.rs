@@ -85,8 +85,12 @@ impl Session {
                     self.sim_command(SimCommandKind::Attach, Some((index, &name)))?;
                 }
                 Action::Detach => self.sim_command(SimCommandKind::Detach, None)?,
-                Action::MapperControl { ignore, carried } => {
-                    self.mapper_control(ignore, carried, config)?;
+                Action::MapperControl {
+                    ignore,
+                    carried,
+                    placed,
+                } => {
+                    self.mapper_control(ignore, carried, &placed, config)?;
                 }
                 Action::Halt => {
                     let to = Target::new(
@@ -226,10 +230,18 @@ impl Session {
         &mut self,
         ignore: Option<(Pose2, Footprint)>,
         carried: Option<Footprint>,
+        placed: &[(Pose2, Footprint)],
         config: &RunConfig,
     ) -> Result<(), RunAborted> {
         let tol = config.mission.goal_tolerance;
         let carry_margin = tol[0].max(tol[1]) + IGNORE_MARGIN;
+        if placed.len() > aisle_messages::MAX_PLACED_PARTS {
+            tracing::warn!(
+                "{} parts of bodies set down, the mapper keeps the newest {}",
+                placed.len(),
+                aisle_messages::MAX_PLACED_PARTS
+            );
+        }
         let stamp = self.stamp();
         self.health.mapper_control.publish(stamp, |m| {
             // Margins: range noise on the legs' faces (ignore), and how far the
@@ -241,6 +253,14 @@ impl Session {
             if let Some(fp) = carried {
                 m.carried = rect(Pose2::default(), fp.inflated(carry_margin));
             }
+            // Exact parts: the mapper marks every cell they overlap. Beyond the
+            // capacity (more than four racks set down) the newest are kept: the robot
+            // is nearest to them.
+            let n = placed.len().min(m.placed.len());
+            for (dst, (pose, fp)) in m.placed.iter_mut().zip(&placed[placed.len() - n..]) {
+                *dst = rect(*pose, *fp);
+            }
+            m.placed_count = n as u32;
         })?;
         Ok(())
     }

@@ -6,7 +6,7 @@
 //! Part of the pure state machine: no bus, no clocks.
 
 use super::{Mission, Phase, Stage};
-use crate::mission::events::{Action, Dock, Planned};
+use crate::mission::events::{Action, Dock, DockBody, Planned};
 use aisle_geometry::{Footprint, Pose2};
 
 /// Tolerances (along, across, heading) for the pose a docking move starts from: the
@@ -157,10 +157,49 @@ impl Mission {
     /// The robot takes `body` (standing under it at `robot`): remember how it sits.
     pub(super) fn begin_carrying(&mut self, body: &str, robot: Pose2) {
         self.carrying = true;
-        let scene_pose = self.body(body).map(|b| b.pose);
-        let at = self.under.as_ref().map(|u| u.pose).or(scene_pose);
+        let standing = self.standing(body).map(|b| b.pose);
+        let at = self.under.as_ref().map(|u| u.pose).or(standing);
         self.carried_rel = at.map(|b| robot.inverse().compose(&b));
         self.under = None;
+        self.placed.retain(|(name, _)| name != body);
+    }
+
+    /// Where `name` stands: where the mission set it down, else where the scene has it.
+    pub(super) fn standing(&self, name: &str) -> Option<DockBody> {
+        if let Some((_, b)) = self.placed.iter().find(|(n, _)| n == name) {
+            return Some(b.clone());
+        }
+        let b = self.body(name)?;
+        Some(b.placed_at(b.pose))
+    }
+
+    /// The parts of every body set down (map frame), but those of `except`: the mapper
+    /// keeps them as obstacles the lidar need not see.
+    pub(super) fn placed_parts(&self, except: Option<&DockBody>) -> Vec<(Pose2, Footprint)> {
+        self.placed
+            .iter()
+            .filter(|(_, b)| except.is_none_or(|e| e.pose != b.pose))
+            .flat_map(|(_, b)| b.parts.iter().copied())
+            .collect()
+    }
+
+    /// What the mapper ignores: the body the robot is under or about to drive under
+    /// (only once the straight move begins: before, its legs are obstacles like any),
+    /// and the carried one; and what it keeps whatever it sees: the legs of the bodies
+    /// set down but the ignored one.
+    pub(super) fn mapper_control(&self) -> Action {
+        let approached = match self.stage {
+            Stage::Docking => self.approached(),
+            _ if self.phase == Phase::Rotating => self.approached(),
+            _ => None,
+        };
+        let ignored = self.under.clone().or(approached);
+        let carried = self.carrying.then(|| self.carried_footprint()).flatten();
+        Action::MapperControl {
+            placed: self.placed_parts(ignored.as_ref()),
+            ignore: ignored.map(|b| (b.pose, b.footprint)),
+            carried,
+        }
     }
 
     /// The robot sets the carried body down at `robot`: it stands there now, and the
@@ -174,7 +213,12 @@ impl Mission {
             .and_then(|n| self.body(n))
             .cloned();
         self.under = match (body, self.carried_rel.take()) {
-            (Some(b), Some(rel)) => Some(b.placed_at(robot.compose(&rel))),
+            (Some(b), Some(rel)) => {
+                let set_down = b.placed_at(robot.compose(&rel));
+                self.placed.retain(|(name, _)| *name != b.name);
+                self.placed.push((b.name.clone(), set_down.clone()));
+                Some(set_down)
+            }
             _ => None,
         };
     }

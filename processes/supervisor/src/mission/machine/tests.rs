@@ -89,7 +89,8 @@ fn the_seed_sequence_plans_rotates_attaches_and_detaches() {
         a[0],
         Action::MapperControl {
             ignore: None,
-            carried: None
+            carried: None,
+            ..
         }
     ));
     assert!(matches!(a[1], Action::Plan { use_detections: false, margin, .. } if margin == 0.1));
@@ -109,7 +110,8 @@ fn the_seed_sequence_plans_rotates_attaches_and_detaches() {
         a[1],
         Action::MapperControl {
             ignore: None,
-            carried: Some(_)
+            carried: Some(_),
+            ..
         }
     ));
     assert!(matches!(a[2], Action::Plan { margin, .. } if margin == 0.4));
@@ -346,6 +348,11 @@ fn a_pick_docks_straight_and_the_leg_after_the_drop_undocks_first() {
         a.iter().any(|x| matches!(x, Action::Plan { dock: Some(Dock::OutOf { body }), .. } if body.pose == Pose2::new(4.0, 0.0, 0.0))),
         "{a:?}"
     );
+    // Still under it: ignored, not yet kept as an obstacle.
+    assert!(
+        a.iter().any(|x| matches!(x, Action::MapperControl { ignore: Some(_), placed, .. } if placed.is_empty())),
+        "{a:?}"
+    );
     let planned = Planned {
         path: poses(4),
         dock_from: None,
@@ -357,8 +364,10 @@ fn a_pick_docks_straight_and_the_leg_after_the_drop_undocks_first() {
         "{a:?}"
     );
     let a = m.on_controller(5.0, drop, REACHED);
+    // Out from under it: the legs of the rack set down are known obstacles now.
+    let leg = (Pose2::new(4.4, 0.35, 0.0), Footprint::new(0.05, 0.05));
     assert!(
-        matches!(a[0], Action::MapperControl { ignore: None, .. }),
+        matches!(&a[0], Action::MapperControl { ignore: None, placed, .. } if *placed == [leg]),
         "{a:?}"
     );
     assert!(
