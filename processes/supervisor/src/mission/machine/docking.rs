@@ -131,9 +131,14 @@ impl Mission {
                 Some(_) => vec![self.redo_docking(pose, footprint, margin)],
                 None => Vec::new(),
             },
-            Stage::Undocking { rest } => {
-                let out = rest.first().map_or(pose, |p| p.pose);
-                vec![straight(out, footprint, margin)]
+            Stage::Undocking { .. } => {
+                // The way out is blocked (often by what the lidar could not see from
+                // under the body when the first plan, on the static map, chose it):
+                // plan the move out again from here, with the detections; the planner
+                // takes the other side when this one stays blocked.
+                self.stage = Stage::Path;
+                self.phase = Phase::Planning;
+                vec![self.plan_action(pose, true)]
             }
             Stage::Path | Stage::ToDock { .. } => {
                 self.phase = Phase::Planning;

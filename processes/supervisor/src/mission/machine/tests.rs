@@ -358,7 +358,26 @@ fn a_pick_docks_straight_and_the_leg_after_the_drop_undocks_first() {
         dock_from: None,
         undock_to: Some(1),
     };
-    let a = m.on_plan(4.0, drop, Ok(planned));
+    let a = m.on_plan(4.0, drop, Ok(planned.clone()));
+    assert!(
+        matches!(a[1], Action::Straight { goal, .. } if goal.x == 1.0),
+        "{a:?}"
+    );
+    // The way out is blocked: the move out is planned again, with the detections.
+    let blocked = ControllerReport { exit_flag: 1, ..OK };
+    let a = m.on_controller(4.5, drop, blocked);
+    assert!(
+        matches!(
+            &a[..],
+            [Action::Plan {
+                dock: Some(Dock::OutOf { .. }),
+                use_detections: true,
+                ..
+            }]
+        ),
+        "{a:?}"
+    );
+    let a = m.on_plan(4.5, drop, Ok(planned));
     assert!(
         matches!(a[1], Action::Straight { goal, .. } if goal.x == 1.0),
         "{a:?}"
