@@ -372,6 +372,18 @@ fn a_recorded_run_profiles_renders_and_survives_truncation() {
     assert!(ticks > 10, "{ticks} ticks recorded");
 
     assert_profile_matches_the_run(&dir, &file);
+    // A lockstep record is on the sim clock: each message logged at its own sim time.
+    let rec = aisle_tools::reader::RecordFile::open(&file).unwrap();
+    assert_eq!(
+        rec.run_metadata().get("log_time").map(String::as_str),
+        Some("sim time")
+    );
+    let raw: Vec<_> = rec.raw_messages().filter_map(Result::ok).collect();
+    assert!(raw.iter().any(|m| m.log_time > 1_000_000_000));
+    let off = raw
+        .iter()
+        .find(|m| m.publish_time != 0 && m.log_time != m.publish_time);
+    assert!(off.is_none(), "not logged at its sim time: {off:?}");
     let prof = run(&dir.run_dir(), &["profile", file.to_str().unwrap()]);
     let table = String::from_utf8_lossy(&prof.stdout);
     assert!(
