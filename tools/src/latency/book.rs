@@ -137,12 +137,25 @@ impl SampleBook {
                 writeln!(out, "{name},{tick},{:.6}", ns as f64 / 1e6)?;
             }
         }
-        if self.realtime {
-            for (tick, ns) in lateness(&self.releases(), self.dt_ns) {
-                writeln!(out, "{LATENESS},{tick},{:.6}", ns as f64 / 1e6)?;
-            }
+        for (tick, ns) in self.release_lateness() {
+            writeln!(out, "{LATENESS},{tick},{:.6}", ns as f64 / 1e6)?;
         }
         out.flush()
+    }
+
+    /// Realtime: `(tick, lateness ns)` of every release in the window; empty in
+    /// lockstep.
+    pub fn release_lateness(&self) -> Vec<(u64, u64)> {
+        if self.realtime {
+            lateness(&self.releases(), self.dt_ns)
+        } else {
+            Vec::new()
+        }
+    }
+
+    /// The tick period in nanoseconds (0 before any tick).
+    pub fn dt_ns(&self) -> u64 {
+        self.dt_ns
     }
 }
 

@@ -39,6 +39,8 @@ pub enum ProfileError {
     Empty { path: String },
     #[error("{0}")]
     Budgets(#[from] aisle_config::ConfigError),
+    #[error("cannot draw the plot: {0}")]
+    Plot(String),
     #[error("cannot write {path}: {source}")]
     Write {
         path: String,
@@ -276,7 +278,7 @@ impl ProfileReport {
     }
 
     pub fn write_svg(&self, path: &Path) -> Result<(), ProfileError> {
-        std::fs::write(path, svg::plot(self)).map_err(write_err(path))
+        std::fs::write(path, svg::plot(self)?).map_err(write_err(path))
     }
 }
 
