@@ -75,7 +75,7 @@ fn config_parsers(name: &str, bytes: &[u8]) {
         )),
         "teb.toml" => drop(aisle_config::load::<aisle_teb_controller::TebConfig>(&p)),
         "mission.toml" => drop(aisle_supervisor::mission::MissionConfig::load(&p, &scene)),
-        "budgets.toml" => drop(aisle_config::load::<aisle_supervisor::budgets::Budgets>(&p)),
+        "budgets.toml" => drop(aisle_config::load::<aisle_tools::latency::Budgets>(&p)),
         "restart.toml" => drop(aisle_config::load::<aisle_supervisor::restart::RestartConfig>(&p)),
         other => panic!("no parser for {other}"),
     }

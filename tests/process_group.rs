@@ -291,9 +291,61 @@ fn record_short_run(dir: &TestDir) -> (std::path::PathBuf, std::process::Output)
             mission.to_str().unwrap(),
             "--record",
             file.to_str().unwrap(),
+            "--report",
+            dir.path("run.json").to_str().unwrap(),
+            "--samples",
+            dir.path("run.csv").to_str().unwrap(),
         ],
     );
     (file, out)
+}
+
+/// One measurement, two views: `aisle profile` on the record of a lockstep run gives the
+/// run's own latency table (same samples, same quantiles, the same attached budgets).
+fn assert_profile_matches_the_run(dir: &TestDir, file: &std::path::Path) {
+    let (json, csv) = (dir.path("profile.json"), dir.path("profile.csv"));
+    let args = ["profile", file.to_str().unwrap(), "--json"];
+    let p = run(
+        &dir.run_dir(),
+        &[
+            &args[..],
+            &[json.to_str().unwrap(), "--samples", csv.to_str().unwrap()],
+        ]
+        .concat(),
+    );
+    assert!(p.status.success(), "{}", String::from_utf8_lossy(&p.stderr));
+    let read = |p: std::path::PathBuf| std::fs::read_to_string(p).unwrap();
+    let report: aisle_supervisor::report::RunReport =
+        serde_json::from_str(&read(dir.path("run.json"))).unwrap();
+    let profiled: aisle_tools::latency::LatencyTable = serde_json::from_str(&read(json)).unwrap();
+    let stages: Vec<&str> = report.latency.iter().map(|s| s.stage.as_str()).collect();
+    for must in [
+        "lidar",
+        "mapper",
+        "teb_controller",
+        "supervisor",
+        "end_to_end",
+    ] {
+        assert!(stages.contains(&must), "{must} missing from {stages:?}");
+    }
+    for s in &report.latency {
+        let twin = profiled.stages.iter().find(|p| p.stage == s.stage);
+        assert_eq!(Some(s), twin, "run and profile disagree on {}", s.stage);
+        assert!(s.budget_ms.is_some(), "{} not scored", s.stage);
+    }
+    assert_eq!(report.tick_release, profiled.tick_release);
+    assert!(report.tick_release.unwrap().lateness.is_none(), "lockstep");
+    // Every sample, once, in both exports.
+    let sorted = |text: String, keep: &dyn Fn(&str) -> bool| {
+        let mut v: Vec<String> = text.lines().filter(|l| keep(l)).map(String::from).collect();
+        v.sort();
+        v
+    };
+    let from_run = sorted(read(dir.path("run.csv")), &|_| true);
+    let from_profile = sorted(read(csv), &|l| !l.starts_with("latency "));
+    assert_eq!(from_run, from_profile);
+    let total: usize = report.latency.iter().map(|s| s.samples).sum();
+    assert_eq!(from_run.len(), 1 + total);
 }
 
 /// Ticks recorded in a file.
@@ -319,6 +371,19 @@ fn a_recorded_run_profiles_renders_and_survives_truncation() {
     let ticks = rec_ticks(&file);
     assert!(ticks > 10, "{ticks} ticks recorded");
 
+    assert_profile_matches_the_run(&dir, &file);
+    // A lockstep record is on the sim clock: each message logged at its own sim time.
+    let rec = aisle_tools::reader::RecordFile::open(&file).unwrap();
+    assert_eq!(
+        rec.run_metadata().get("log_time").map(String::as_str),
+        Some("sim time")
+    );
+    let raw: Vec<_> = rec.raw_messages().filter_map(Result::ok).collect();
+    assert!(raw.iter().any(|m| m.log_time > 1_000_000_000));
+    let off = raw
+        .iter()
+        .find(|m| m.publish_time != 0 && m.log_time != m.publish_time);
+    assert!(off.is_none(), "not logged at its sim time: {off:?}");
     let prof = run(&dir.run_dir(), &["profile", file.to_str().unwrap()]);
     let table = String::from_utf8_lossy(&prof.stdout);
     assert!(
@@ -326,7 +391,8 @@ fn a_recorded_run_profiles_renders_and_survives_truncation() {
         "{}",
         String::from_utf8_lossy(&prof.stderr)
     );
-    assert!(table.contains("end to end"), "{table}");
+    assert!(table.contains("end_to_end"), "{table}");
+    assert!(table.contains("the record's budgets.toml"), "{table}");
     let png = dir.path("run.png");
     let r = run(
         &dir.run_dir(),

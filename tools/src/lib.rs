@@ -6,7 +6,9 @@
 //!   compares their outputs with the recorded ones ([`tick_batches`] regroups the file,
 //!   [`diff`] names the first differing field);
 //! - [`reader`]: reads a recorded file (raw payloads, attachments, damage reports);
-//! - [`profile`]: per-stage and end-to-end latency and jitter from a recorded file;
+//! - [`latency`]: the latency figures of a run (quantiles, budgets, tick release), one
+//!   definition for `aisle run` and `aisle profile`;
+//! - [`profile`]: those figures (and output latencies) from a recorded file;
 //! - [`render`]: a top-view PNG of a run; [`animate`]: a self-contained HTML page that
 //!   plays the run back.
 //!
@@ -22,6 +24,7 @@ pub mod animate;
 pub mod canvas;
 pub mod catalog;
 pub mod diff;
+pub mod latency;
 pub mod lockstep;
 mod payload_fields;
 pub mod profile;

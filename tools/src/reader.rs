@@ -3,7 +3,7 @@
 //!
 //! The file is read into memory once. A truncated or corrupt file yields every message
 //! before the damage and then one [`ReadError::Damaged`] that says after which message
-//! and at which receive time the readable part ends; nothing here panics on bad bytes.
+//! and at which log time the readable part ends; nothing here panics on bad bytes.
 //! This module knows the file format, not the bus or what the payloads mean.
 
 use crate::writer::{RAW_ENCODING, TRIMMED_KEY};
@@ -22,7 +22,7 @@ pub enum ReadError {
     NotMcap { path: PathBuf },
     #[error(
         "{path} is damaged: the readable part ends after {messages} messages{}; {reason}",
-        match last_log_time_ns { Some(t) => format!(" (last receive time {t} ns)"), None => String::new() }
+        match last_log_time_ns { Some(t) => format!(" (last log time {t} ns)"), None => String::new() }
     )]
     Damaged {
         path: PathBuf,

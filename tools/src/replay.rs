@@ -2,7 +2,8 @@
 //!
 //! Before anything is published, every selected channel is checked against this build:
 //! same message type, size and layout hash, else the file is refused naming the service.
-//! Pacing follows the recorded receive times (`log_time`) scaled by a rate, against
+//! Pacing follows the recorded `log_time` (sim time in a lockstep record, so it plays at
+//! the speed of the mission; the receive time in a realtime one) scaled by a rate, against
 //! absolute deadlines on the monotonic clock so errors do not accumulate; without a rate
 //! messages go out as fast as possible. A start offset skips the beginning but first
 //! publishes the newest sample of each state service (history > 0: maps, goals, band),

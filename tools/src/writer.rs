@@ -4,8 +4,9 @@
 //! Raw channels: message encoding [`RAW_ENCODING`], schema named by the message type
 //! (encoding [`LAYOUT_ENCODING`], data = a text listing of the field layout), channel
 //! metadata `type_name`, `size`, `align`, `layout_hash` (per type) and `schema_hash`
-//! (all types, as `aisle_messages::schema_hash_hex()`). Each message: `log_time` = receive
-//! time, `publish_time` = the header's `stamp_ns`, `sequence` = the header's `seq`
+//! (all types, as `aisle_messages::schema_hash_hex()`). Each message: `log_time` as the
+//! caller gives it (the recorder: sim time in lockstep, Unix receive time in realtime,
+//! see `record::log_clock`), `publish_time` = the header's `stamp_ns`, `sequence` = the header's `seq`
 //! (truncated to 32 bits). This module knows the file format, not the bus.
 
 use crate::catalog::{ServiceInfo, services};

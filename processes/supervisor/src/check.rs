@@ -16,9 +16,9 @@ pub mod sensor;
 #[cfg(test)]
 mod testing;
 
-use crate::budgets::Budgets;
 use crate::mission::MissionConfig;
 use aisle_config::scene::Scene;
+use aisle_tools::latency::Budgets;
 use std::path::{Path, PathBuf};
 
 /// The files a config directory holds, by role.

@@ -63,23 +63,13 @@ setup failure)."
     /// file, until Ctrl-C or until the group has been silent for --idle-stop seconds.
     #[command(after_help = "Exit: 0 recorded, 2 could not (no group, unwritable file).")]
     Record(RecordArgs),
-    /// Latency and jitter per stage and end to end from a recorded run.
+    /// The latency table of a recorded run (as `aisle run` prints it), scored against the
+    /// `budgets.toml` attached to the record.
     #[command(
         after_help = "Exit: 0 profiled (a damaged file: what could be read, said so), \
-2 could not (unreadable record, unwritable --svg)."
+2 could not (unreadable record, invalid budgets, unwritable output)."
     )]
-    Profile {
-        file: PathBuf,
-        /// Deadline for the misses column, milliseconds.
-        #[arg(long, default_value_t = 50.0)]
-        deadline_ms: f64,
-        /// Also write a latency plot (SVG).
-        #[arg(long)]
-        svg: Option<PathBuf>,
-        /// Print histograms too.
-        #[arg(long)]
-        histograms: bool,
-    },
+    Profile(crate::profile_cli::ProfileArgs),
     /// Draw the top view of a recorded run as a PNG, or (`-o run.html`) a self-contained
     /// page that plays the run back.
     #[command(after_help = "Exit: 0 written, 2 could not (unreadable record, unwritable output).")]
@@ -172,6 +162,9 @@ pub struct RunArgs {
     /// Record every service to this MCAP file (raw payloads plus Foxglove channels).
     #[arg(long)]
     pub record: Option<PathBuf>,
+    /// Write every latency sample to this CSV file (stage, tick, ms).
+    #[arg(long)]
+    pub samples: Option<PathBuf>,
     /// Fault injection: SIGKILL a node when the run reaches a tick, e.g. `lidar@120`
     /// (once; the node is restarted as after any crash). Repeatable.
     #[arg(long = "kill", value_name = "NODE@TICK")]
@@ -327,14 +320,9 @@ pub fn main() -> ExitCode {
             init_logging("info");
             records::record(&a.into())
         }
-        Command::Profile {
-            file,
-            deadline_ms,
-            svg,
-            histograms,
-        } => {
+        Command::Profile(a) => {
             init_logging("warn");
-            records::profile(&file, deadline_ms, svg.as_deref(), histograms)
+            crate::profile_cli::profile(&a)
         }
         Command::Render {
             file,
@@ -435,6 +423,7 @@ impl From<RunArgs> for RunOptions {
             mission: args.mission,
             kill: args.kill,
             record: args.record,
+            samples: args.samples,
             crash_on_start: args.crash_on_start,
         }
     }

@@ -6,7 +6,6 @@
 //! - [`session`]: one run of the process group: startup, node health and restarts,
 //!   the tick loop, the mission's actions on the bus, shutdown and the report.
 //! - [`mission`]: `mission.toml` and the mission state machine (pure; no bus, no clock).
-//! - [`budgets`]: latency budgets and the per-stage statistics.
 //! - [`report`]: the run's metrics and their JSON form.
 //! - [`restart`]: the restart policy and the count of restarts.
 //! - [`check`]: validation of every file in `config/`.
@@ -20,7 +19,6 @@
 //! - [`scenario_cli`]: the arguments of `scenario generate` and `sweep`.
 //! - [`sweep`]: `aisle sweep`, many scenarios run in parallel against their oracles.
 
-pub mod budgets;
 pub mod check;
 pub mod clean;
 pub mod cli;
@@ -29,6 +27,7 @@ pub mod exit;
 pub mod launch;
 pub mod mission;
 pub mod nodes;
+pub mod profile_cli;
 pub mod records;
 pub mod replay_check;
 pub mod report;

@@ -1,4 +1,4 @@
-//! `aisle record`, `aisle replay`, `aisle profile` and `aisle render`: the command-line side of the MCAP
+//! `aisle record`, `aisle replay` and `aisle render`: the command-line side of the MCAP
 //! tools in aisle-tools (which hold the formats and the algorithms).
 
 use crate::mission::MissionConfig;
@@ -273,33 +273,6 @@ fn replay_check(a: &ReplayRequest) -> ExitCode {
         );
         ExitCode::from(2)
     }
-}
-
-pub fn profile(file: &Path, deadline_ms: f64, svg: Option<&Path>, histograms: bool) -> ExitCode {
-    if !(deadline_ms.is_finite() && deadline_ms > 0.0) {
-        return fail(format!("--deadline-ms must be positive, got {deadline_ms}"));
-    }
-    let opts = aisle_tools::profile::ProfileOptions {
-        deadline_ns: (deadline_ms * 1e6) as u64,
-    };
-    let report = match aisle_tools::profile::profile_with(file, &opts) {
-        Ok(r) => r,
-        Err(e) => return fail(e),
-    };
-    print!("{}", report.table());
-    if histograms {
-        print!("{}", report.histograms());
-    }
-    if let Some(t) = &report.truncated {
-        println!("the file is damaged: profiled what could be read; {t}");
-    }
-    if let Some(p) = svg {
-        if let Err(e) = report.write_svg(p) {
-            return fail(e);
-        }
-        println!("wrote {}", p.display());
-    }
-    ExitCode::SUCCESS
 }
 
 pub fn render(file: &Path, out: &Path, pixels_per_metre: f64, band_every: usize) -> ExitCode {

@@ -1,9 +1,9 @@
 //! The metrics of one run, as printed at the end and written by `--report` (JSON).
 //! Plain data: the session fills it, tests and tools read it back.
 
-use crate::budgets::StageSummary;
 use crate::collisions::CollisionEvent;
 use crate::mission::LegResult;
+use aisle_tools::latency::{Summary, TickRelease};
 use serde::{Deserialize, Serialize};
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -44,7 +44,12 @@ pub struct RunReport {
     /// Node restarts after a crash or a missed heartbeat deadline.
     pub restarts: u32,
     pub legs: Vec<LegResult>,
-    pub latency: Vec<StageSummary>,
+    /// One row per stage and end to end (`aisle_tools::latency`: nearest-rank
+    /// quantiles, budgets from `budgets.toml`).
+    pub latency: Vec<Summary>,
+    /// When ticks started against the ideal schedule (realtime); not scored.
+    #[serde(default)]
+    pub tick_release: Option<TickRelease>,
     /// t, x, y, heading of the robot at every tick (ground truth).
     pub driven_path: Vec<[f64; 4]>,
     pub reference_paths: Vec<ReferencePath>,

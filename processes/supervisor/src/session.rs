@@ -21,13 +21,13 @@ mod startup;
 mod status;
 mod tick_loop;
 
-use crate::budgets::{LatencyBook, format_table};
 use crate::launch::current_exe;
 use crate::mission::Mission;
 use crate::report::RunReport;
 use aisle_bus::{BusError, Instance};
 use aisle_geometry::Pose2;
 use aisle_messages::{TickMode, WorldTruth};
+use aisle_tools::latency::{LatencyTable, SampleBook, format_table};
 use anyhow::{Context, anyhow, bail};
 use health::NodeHealth;
 use run_config::RunConfig;
@@ -52,6 +52,8 @@ pub struct RunOptions {
     pub crash_on_start: Option<String>,
     /// Record every service to this MCAP file.
     pub record: Option<PathBuf>,
+    /// Write every latency sample to this CSV file.
+    pub samples: Option<PathBuf>,
 }
 
 pub struct RunOutcome {
@@ -112,17 +114,27 @@ pub fn run(opts: &RunOptions) -> anyhow::Result<RunOutcome> {
     let result = Session::start(opts, &config, &instance, exe).map(|mut s| {
         let r = s.drive(opts, &config);
         let report = s.finish(opts, &config, wall_start, &r);
-        (report, r)
+        let samples = opts.samples.as_ref().map(|p| (p, s.write_samples(p)));
+        (report, r, samples)
     });
     // Every port is dropped by now; remove what is left of the instance.
     let cleanup = instance.remove();
-    let (report, r) = result?;
+    let (report, r, samples) = result?;
     if let Err(e) = cleanup {
         tracing::warn!("could not remove instance {}: {e}", instance.prefix);
     }
     print!("{}", report.summary());
     if !report.latency.is_empty() {
-        print!("{}", format_table(&report.latency));
+        print!(
+            "{}",
+            format_table(&LatencyTable {
+                stages: report.latency.clone(),
+                tick_release: report.tick_release.clone(),
+            })
+        );
+    }
+    if let Some((path, written)) = samples {
+        written.with_context(|| format!("writing the samples {}", path.display()))?;
     }
     if let Some(path) = &opts.report {
         let json = serde_json::to_string_pretty(&report)?;
@@ -147,7 +159,7 @@ struct Session {
     ports: DataPorts,
     health: NodeHealth,
     mode: TickMode,
-    book: LatencyBook,
+    book: SampleBook,
     mission: Mission,
     goal_id: u64,
     pose: Pose2,

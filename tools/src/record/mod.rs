@@ -12,10 +12,12 @@
 //!
 //! Modules: [`drain`] (the node thread), [`write`] (the writer thread), [`seq`] (losses
 //! from sequence numbers), [`answer`] (when to acknowledge a lockstep tick),
-//! [`run_info`] (metadata and attachments). This module joins and finalises.
+//! [`run_info`] (metadata and attachments), [`log_clock`] (which clock `log_time` is
+//! on: sim time in lockstep, Unix time in realtime). This module joins and finalises.
 
 mod answer;
 mod drain;
+pub mod log_clock;
 mod run_info;
 mod seq;
 mod write;
@@ -27,10 +29,11 @@ use crate::raw_ports::{RawSource, open_source};
 use crate::viewer::ViewerOptions;
 use crate::writer::WriterOptions;
 use aisle_bus::{Bus, BusError, NodeArgs, NodeError};
-use aisle_messages::{NodeKind, NodeState, topics};
+use aisle_messages::{NodeKind, NodeState, TickMode, topics};
 use aisle_node::Graph;
 use answer::AnswerRule;
 use drain::{DrainPorts, drain};
+use log_clock::LogClock;
 use run_info::{loss_metadata, queue_run_info};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -121,8 +124,10 @@ pub fn run_recorder_with(
 
     // The file: the writer thread, then the run's description.
     let names: Vec<&'static str> = services().iter().map(|i| i.service).collect();
-    let writer = WriterThread::start(out, options, &names)?;
-    queue_run_info(&writer.jobs, args, &info);
+    let mode = TickMode::from_u32(info.mode).unwrap_or(TickMode::Lockstep);
+    let log_clock = LogClock::of_mode(mode);
+    let writer = WriterThread::start(out, options, &names, log_clock)?;
+    queue_run_info(&writer.jobs, args, &info, log_clock.name());
     heartbeat.send(NodeState::Ready, "")?;
 
     // Recording until the end.

@@ -16,9 +16,16 @@ use std::sync::mpsc;
 
 /// Queues the run's metadata and every config file (a file that cannot be read is
 /// logged and left out).
-pub(super) fn queue_run_info(jobs: &mpsc::Sender<Job>, args: &NodeArgs, info: &InstanceInfo) {
+pub(super) fn queue_run_info(
+    jobs: &mpsc::Sender<Job>,
+    args: &NodeArgs,
+    info: &InstanceInfo,
+    log_clock: &str,
+) {
     let now = clock::monotonic_ns();
-    let _ = jobs.send(Job::Metadata("aisle".into(), run_metadata(args, info)));
+    let mut meta = run_metadata(args, info);
+    meta.insert("log_time".into(), log_clock.into());
+    let _ = jobs.send(Job::Metadata("aisle".into(), meta));
     for (name, path) in config_files(&args.config_dir) {
         match std::fs::read(&path) {
             Ok(data) => {

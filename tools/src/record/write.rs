@@ -6,6 +6,7 @@
 //! go back to the drain once written, so the node thread rarely allocates.
 
 use super::RecorderOptions;
+use super::log_clock::LogClock;
 use crate::aligned::AlignedBuf;
 use crate::viewer::{ViewerConverter, ViewerOptions};
 use crate::writer::{RecordWriter, WriteCounts, WriteError};
@@ -53,6 +54,7 @@ impl WriterThread {
         out: &Path,
         options: &RecorderOptions,
         names: &[&'static str],
+        clock: LogClock,
     ) -> Result<WriterThread, NodeError> {
         let file = File::create(out)
             .map_err(|e| NodeError::setup(format!("recorder: output {}", out.display()), e))?;
@@ -68,6 +70,7 @@ impl WriterThread {
             queued: queued.clone(),
             names: names.to_vec(),
             viewer: options.viewer,
+            clock,
             flush_period_ns: options.flush_period.as_nanos() as u64,
         };
         let thread = std::thread::Builder::new()
@@ -101,6 +104,8 @@ struct WriteLoop<W: std::io::Write + std::io::Seek> {
     queued: Arc<AtomicUsize>,
     names: Vec<&'static str>,
     viewer: ViewerOptions,
+    /// Maps receive times to `log_time`.
+    clock: LogClock,
     flush_period_ns: u64,
 }
 
@@ -113,6 +118,7 @@ impl<W: std::io::Write + std::io::Seek> WriteLoop<W> {
             queued,
             names,
             viewer,
+            mut clock,
             flush_period_ns,
         } = self;
         let mut viewer = ViewerConverter::new(viewer);
@@ -129,6 +135,7 @@ impl<W: std::io::Write + std::io::Seek> WriteLoop<W> {
                 } => {
                     queued.fetch_sub(buf.len(), Ordering::Relaxed);
                     full.set_padded(buf.bytes(), full_len);
+                    let log_time = clock.of_payload(log_time, full.bytes());
                     writer.write_raw_at(index, log_time, full.bytes())?;
                     converted.clear();
                     viewer.convert(names[index], &full, &mut converted);
@@ -143,7 +150,7 @@ impl<W: std::io::Write + std::io::Seek> WriteLoop<W> {
                     media_type,
                     data,
                     time,
-                } => writer.attach(&name, media_type, &data, time)?,
+                } => writer.attach(&name, media_type, &data, clock.of_event(time))?,
             }
             let now = clock::monotonic_ns();
             if now.saturating_sub(last_flush) >= flush_period_ns {

@@ -134,7 +134,7 @@ impl Session {
         let limit = timeout + Duration::from_secs(1);
         loop {
             if let Some(resp) = self.ports.planner.wait(id, POLL, || {})? {
-                self.book.record("global_planner", resp.solve_ns);
+                self.book.record_plan(&resp);
                 let status = PlanStatus::from_u32(resp.status);
                 return Ok(match status {
                     Some(PlanStatus::Ok) => {

@@ -3,13 +3,13 @@
 //! injections. Loading fails before a single process exists.
 
 use super::RunOptions;
-use crate::budgets::Budgets;
 use crate::check::{self, ConfigFiles};
 use crate::mission::{Footprints, MissionConfig};
 use crate::restart::RestartConfig;
 use aisle_config::scene::Scene;
 use aisle_messages::NodeKind;
 use aisle_node::Graph;
+use aisle_tools::latency::Budgets;
 use anyhow::{anyhow, bail};
 use std::path::{Path, PathBuf};
 
@@ -35,6 +35,9 @@ impl RunConfig {
         // a warning and the run goes on unrecorded; a malformed path is an error.
         if let Some(p) = &opts.report {
             writable_output("--report", p)?;
+        }
+        if let Some(p) = &opts.samples {
+            writable_output("--samples", p)?;
         }
         let mut record = opts.record.clone();
         if let Some(p) = &opts.record {

@@ -30,6 +30,9 @@ impl Session {
     }
 
     fn report(&mut self, opts: &RunOptions, config: &RunConfig, wall_start: Instant) -> RunReport {
+        // The window both views use: the ticks before the last one acted on.
+        self.book.end_at(self.ticks);
+        let latency = self.book.summarise(Some(&config.budgets));
         let truth = self.truth.as_ref();
         let m = &self.mission;
         RunReport {
@@ -51,7 +54,8 @@ impl Session {
             replans: m.replans_total(),
             restarts: self.health.restarts.total(),
             legs: m.results.clone(),
-            latency: self.book.summarise(&config.budgets),
+            latency: latency.stages,
+            tick_release: latency.tick_release,
             driven_path: std::mem::take(&mut self.driven),
             reference_paths: m
                 .reference_paths
@@ -66,6 +70,14 @@ impl Session {
                 .collect(),
             bodies_final: truth.map(movable_bodies).unwrap_or_default(),
         }
+    }
+}
+
+impl Session {
+    /// Every latency sample of the run as CSV (`--samples`).
+    pub(super) fn write_samples(&self, path: &std::path::Path) -> std::io::Result<()> {
+        let file = std::fs::File::create(path)?;
+        self.book.write_csv(std::io::BufWriter::new(file))
     }
 }
 

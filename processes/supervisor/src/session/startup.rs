@@ -6,7 +6,6 @@ use super::health::NodeHealth;
 use super::retained_state::RetainedState;
 use super::run_config::RunConfig;
 use super::{GRACE, RunOptions, Session};
-use crate::budgets::LatencyBook;
 use crate::launch::{LaunchSpec, ProcessGroup};
 use crate::mission::{Mission, NamedBody};
 use crate::restart::RestartBook;
@@ -17,6 +16,7 @@ use aisle_messages::{
     WorldTruth, topics,
 };
 use aisle_node::tick::Awaited;
+use aisle_tools::latency::SampleBook;
 use anyhow::{Context, bail};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -103,7 +103,7 @@ impl Session {
             ports,
             health,
             mode: opts.mode,
-            book: LatencyBook::default(),
+            book: SampleBook::default(),
             mission,
             goal_id: 0,
             pose: config.mission.start_pose(),

@@ -9,11 +9,11 @@
 
 use super::run_config::RunConfig;
 use super::{RunAborted, RunOptions, Session};
-use crate::budgets::LatencyBook;
 use crate::mission::{Action, ControllerReport};
 use aisle_bus::Stamp;
 use aisle_geometry::Pose2;
 use aisle_messages::{NodeKind, SimCommandKind, StageStatus, Tick, TickDone, TickMode};
+use aisle_tools::latency::SampleBook;
 use std::time::{Duration, Instant};
 
 /// Longest a lockstep tick may take before the run is declared stuck.
@@ -77,10 +77,10 @@ impl Session {
             self.publish_status()?;
             self.progress(opts);
             let compute = (work.elapsed().as_nanos() as u64).saturating_sub(planner_ns);
-            self.book.record("supervisor", compute);
-            if self.mode == TickMode::Lockstep {
-                self.acknowledge(&tick, Some(compute))?;
-            }
+            self.book.record("supervisor", k, compute);
+            // In realtime nobody waits for it, but a record then holds the supervisor's
+            // compute time as the run's table does.
+            self.acknowledge(&tick, Some(compute))?;
             self.health.restarted.clear();
             if self.mission.is_finished() {
                 return Ok(());
@@ -90,12 +90,13 @@ impl Session {
 
     /// The next tick to act on, while watching the children.
     fn next_tick(&mut self, stall: Duration) -> Result<Tick, RunAborted> {
-        let tick =
+        let mut tick =
             self.health
                 .wait_on(&self.ports.tick, stall, "tick from the simulator", |_| true)?;
+        self.book.record_tick(&tick);
         // Realtime: act on the newest tick; lockstep delivers them one by one.
-        let mut tick = tick;
         while let Some(t) = self.ports.tick.receive()? {
+            self.book.record_tick(&t);
             tick = *t;
         }
         // Ticks may keep coming (realtime) while a node is dead: look every tick.
@@ -175,11 +176,7 @@ impl Session {
     fn read_trajectories(&mut self) -> Result<Vec<Action>, RunAborted> {
         let mut actions = Vec::new();
         while let Some(traj) = self.ports.trajectory.receive()? {
-            let e2e = traj
-                .header
-                .publish_wall_ns
-                .saturating_sub(traj.header.tick_wall_ns);
-            self.book.record("end_to_end", e2e);
+            self.book.record_trajectory(&traj.header);
             if traj.goal_id == self.goal_id && traj.goal_id != 0 {
                 let n = (traj.len as usize).min(traj.commands.len());
                 let increasing = traj.commands[..n].windows(2).all(|w| w[1].t > w[0].t);
@@ -206,12 +203,10 @@ impl Session {
     }
 }
 
-fn record_done(book: &mut LatencyBook, d: &TickDone) {
-    // Idle acknowledgements (the controller between its ticks) are not work.
-    if let Some(kind) = NodeKind::from_u32(d.node)
-        && kind != NodeKind::Supervisor
-        && d.status != StageStatus::Idle as u32
-    {
-        book.record(kind.name(), d.compute_ns);
+/// Another stage's acknowledgement (the supervisor's own compute time is recorded
+/// where it is measured).
+fn record_done(book: &mut SampleBook, d: &TickDone) {
+    if d.node != NodeKind::Supervisor as u32 {
+        book.record_done(d);
     }
 }

@@ -1,0 +1,65 @@
+//! `aisle profile`: the command-line side of `aisle_tools::profile` (the latency table
+//! of a recorded run, as `aisle run` prints it live).
+
+use aisle_tools::latency::Budgets;
+use aisle_tools::profile::{ProfileError, ProfileOptions, ProfileReport, profile_with};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Debug, Clone, clap::Args)]
+pub struct ProfileArgs {
+    pub file: PathBuf,
+    /// Score against this budgets file instead of the `budgets.toml` attached to the
+    /// record.
+    #[arg(long)]
+    pub budgets: Option<PathBuf>,
+    /// Also write the table as JSON (the shape of `aisle run --report`'s `latency`
+    /// and `tick_release`).
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Also write every sample as CSV (stage, tick, ms).
+    #[arg(long)]
+    pub samples: Option<PathBuf>,
+    /// Also write a latency plot (SVG).
+    #[arg(long)]
+    pub svg: Option<PathBuf>,
+    /// Print histograms too.
+    #[arg(long)]
+    pub histograms: bool,
+}
+
+pub fn profile(a: &ProfileArgs) -> ExitCode {
+    let budgets = match &a.budgets {
+        Some(p) => match aisle_config::load::<Budgets>(p) {
+            Ok(b) => Some(b),
+            Err(e) => return crate::exit::fail(e),
+        },
+        None => None,
+    };
+    let report = match profile_with(&a.file, &ProfileOptions { budgets }) {
+        Ok(r) => r,
+        Err(e) => return crate::exit::fail(e),
+    };
+    print!("{}", report.table());
+    if a.histograms {
+        print!("{}", report.histograms());
+    }
+    if let Some(t) = &report.truncated {
+        println!("the file is damaged: profiled what could be read; {t}");
+    }
+    for (path, write) in [
+        (a.json.as_deref(), ProfileReport::write_json as Writer),
+        (a.samples.as_deref(), ProfileReport::write_samples as Writer),
+        (a.svg.as_deref(), ProfileReport::write_svg as Writer),
+    ] {
+        let Some(path) = path else { continue };
+        if let Err(e) = write(&report, path) {
+            return crate::exit::fail(e);
+        }
+        println!("wrote {}", path.display());
+    }
+    ExitCode::SUCCESS
+}
+
+/// One of the report's file outputs.
+type Writer = fn(&ProfileReport, &std::path::Path) -> Result<(), ProfileError>;
