@@ -66,14 +66,6 @@ pub struct PlannerConfig {
     /// Docking: clearance (m) the straight move keeps from the rack's legs and from
     /// occupied cells (the legs leave 0.135 m beside the Jackal in the narrower opening).
     pub dock_clearance: f64,
-    /// A start inside the requested margin (the robot stopped close to something) is
-    /// planned out of, not refused: until the path has left the margin it keeps only
-    /// this much clearance (m; the request's margin when smaller); once out, the rest of
-    /// the path keeps the whole margin.
-    pub escape_margin: f64,
-    /// Extra cost, as a fraction of a motion's cost, of the motions that lead out of the
-    /// margin: the search leaves it by the shortest way.
-    pub escape_cost: f64,
 }
 
 impl Default for PlannerConfig {
@@ -103,8 +95,6 @@ impl Default for PlannerConfig {
             stop_check_interval: 256,
             dock_run_in: 0.5,
             dock_clearance: 0.03,
-            escape_margin: 0.01,
-            escape_cost: 1.0,
         }
     }
 }
@@ -166,8 +156,6 @@ impl Validate for PlannerConfig {
         in_range("stop_check_interval", self.stop_check_interval, 1, u32::MAX)?;
         positive("dock_run_in", self.dock_run_in)?;
         at_least("dock_clearance", self.dock_clearance, 0.0)?;
-        at_least("escape_margin", self.escape_margin, 0.0)?;
-        at_least("escape_cost", self.escape_cost, 0.0)?;
         Ok(())
     }
 }

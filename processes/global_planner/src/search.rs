@@ -133,31 +133,12 @@ impl Planner {
         if !on_map(&goal) {
             return Err(PlanErrorKind::GoalOutsideMap);
         }
-        // The search reaches the goal with its own checker: a goal that only the output
-        // checker accepts would be searched for until the budget ran out.
-        if !checker.pose_free(&goal) {
+        if !output.pose_free(&start) {
+            return Err(PlanErrorKind::StartOccupied);
+        }
+        if !output.pose_free(&goal) {
             return Err(PlanErrorKind::GoalOccupied);
         }
-        // A start inside the margin is left with only `escape_margin` of it; the
-        // output is then checked with that much everywhere (the search keeps the
-        // whole margin once out).
-        let bare = req.footprint.inflated(cfg.escape_margin.min(req.margin));
-        // The search checker (grown by the sagitta) decides: a start inside that thin
-        // band could not move at all.
-        let escaping = !checker.pose_free(&start);
-        let (escape, output, body) = if escaping {
-            // A finer reach too: each check asks for `cover` more clearance, which a
-            // robot that stopped a few centimetres off an obstacle does not have.
-            let cover = cfg.sweep_cover.min(ESCAPE_COVER);
-            let out = FootprintChecker::new(&self.dm, bare, cover);
-            if !out.pose_free(&start) {
-                return Err(PlanErrorKind::StartOccupied);
-            }
-            let search = FootprintChecker::new(&self.dm, bare.inflated(sagitta), cover);
-            (Some(search), out, bare)
-        } else {
-            (None, output, body)
-        };
         let reached = self.heur.compute(
             &self.dm,
             body.inscribed_radius(),
@@ -177,7 +158,6 @@ impl Planner {
             grid: SearchGrid::new(map, cfg.search_resolution, model.bins),
             heur: &self.heur,
             checker,
-            escape,
             goal,
             buf: &mut self.buf,
             stats: &mut *stats,
@@ -199,9 +179,6 @@ impl Planner {
 
 /// The returned path: the traced `buf.raw`, smoothed if configured, and swept again by
 /// the output checker; the unsmoothed path if only the smoothed one fails.
-/// Reach of one collision check (m) on the way out of the margin (see `sweep_cover`).
-const ESCAPE_COVER: f64 = 0.005;
-
 fn output_path(
     cfg: &PlannerConfig,
     radius: f64,

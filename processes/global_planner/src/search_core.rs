@@ -30,8 +30,6 @@ pub(crate) struct Node {
     pub(crate) dir: i8,
     pub(crate) closed: bool,
     pub(crate) h_full: bool,
-    /// Still inside the request's margin (on the way out of it from the start).
-    pub(crate) escaping: bool,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -85,9 +83,6 @@ pub(crate) struct Search<'a> {
     pub(crate) grid: SearchGrid,
     pub(crate) heur: &'a GridHeuristic,
     pub(crate) checker: FootprintChecker<'a>,
-    /// The footprint with only `escape_margin`: set when the start is inside the margin,
-    /// for the motions that lead out of it.
-    pub(crate) escape: Option<FootprintChecker<'a>>,
     pub(crate) goal: Pose2,
     pub(crate) buf: &'a mut Buffers,
     pub(crate) stats: &'a mut PlanStats,
@@ -107,7 +102,6 @@ impl Search<'_> {
             dir: DIR_NONE,
             closed: false,
             h_full: false,
-            escaping: self.escape.is_some(),
         });
         self.stats.nodes = 1;
     }
@@ -248,27 +242,13 @@ impl Search<'_> {
                 continue;
             }
             let dir = model.prim_dir[pi];
-            let mut g = node.g + model.prim_cost[pi] + model.switch(node.dir, dir);
+            let g = node.g + model.prim_cost[pi] + model.switch(node.dir, dir);
             if existing != NONE && buf.nodes[existing as usize].g <= g {
                 continue;
             }
             let probes = &mut self.stats.collision_probes;
-            let mut escaping = false;
             if !self.checker.motion_free(&node.pose, prim, probes) {
-                // Inside the margin only on the way out of it from the start.
-                let out = node.escaping
-                    && self
-                        .escape
-                        .as_ref()
-                        .is_some_and(|e| e.motion_free(&node.pose, prim, probes));
-                if !out {
-                    continue;
-                }
-                escaping = !self.checker.pose_free(&pose);
-                g += self.cfg.escape_cost * model.prim_cost[pi];
-                if existing != NONE && buf.nodes[existing as usize].g <= g {
-                    continue;
-                }
+                continue;
             }
             let Some(h2d) = self.heur.metres(pose.x, pose.y) else {
                 continue;
@@ -283,7 +263,6 @@ impl Search<'_> {
                 dir,
                 closed: false,
                 h_full: false,
-                escaping,
             };
             if existing == NONE {
                 buf.push_node(child);

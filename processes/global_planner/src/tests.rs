@@ -259,60 +259,6 @@ fn occupied_start_or_goal_is_a_typed_error() {
 }
 
 #[test]
-fn a_start_inside_the_margin_is_planned_out_of_and_the_rest_keeps_the_margin() {
-    let map = seed_map::seed_map(20.0);
-    let view = map.view();
-    let mut planner = Planner::new(PlannerConfig::default()).unwrap();
-    let base = request(&seed_map::seed_segments()[1]);
-    let (fp, margin) = (base.footprint, base.margin);
-    let bare = fp.inflated(PlannerConfig::default().escape_margin);
-    // Beside the rack row at x = 5: walk towards it until the grown footprint touches.
-    let start = (0..200)
-        .map(|i| Pose2::new(3.0 + 0.005 * i as f64, 12.0, FRAC_PI_2))
-        .find(|p| pose_collides(&view, &fp.inflated(margin), p))
-        .map(|p| Pose2::new(p.x + 0.02, p.y, p.theta))
-        .unwrap();
-    assert!(!pose_collides(&view, &bare, &start), "{start:?}");
-    let req = PlanRequest { start, ..base };
-    let plan = planner.plan(&req, &view).unwrap();
-    let path = &plan.path;
-    assert_eq!(path[0].pose, start);
-    assert_eq!(path.last().unwrap().pose, req.goal);
-    assert_sweep_free(path, &view, &bare);
-    // Out of the margin within a metre, and it keeps it from there on.
-    let grown = fp.inflated(margin);
-    let out = path
-        .iter()
-        .position(|p| !pose_collides(&view, &grown, &p.pose))
-        .unwrap();
-    assert!(
-        seed_map_length(&path[..=out]) < 1.0,
-        "{out} poses to leave the margin"
-    );
-    let tail = &path[out..];
-    validate_path(tail, fp, 0.9 * margin, &view, 0.05).unwrap();
-    // Where even the bare footprint touches, the start is refused.
-    let touching = Pose2::new(start.x + margin, start.y, start.theta);
-    assert!(pose_collides(&view, &bare, &touching));
-    let e = planner
-        .plan(
-            &PlanRequest {
-                start: touching,
-                ..base
-            },
-            &view,
-        )
-        .unwrap_err();
-    assert_eq!(e.kind, PlanErrorKind::StartOccupied);
-}
-
-fn seed_map_length(path: &[PathPose]) -> f64 {
-    path.windows(2)
-        .map(|w| w[0].pose.distance(&w[1].pose))
-        .sum()
-}
-
-#[test]
 fn walled_in_goal_is_no_path_before_any_expansion() {
     let mut map = seed_map::seed_map(10.0);
     // A closed box of 0.1 m walls around (0, 5).

@@ -14,9 +14,6 @@ use crate::timing::Timing;
 /// An acceleration counts as exceeded beyond this factor of its limit (MATLAB's 10 %
 /// for the margin).
 const ACCELERATION_TOLERANCE: f64 = 1.1;
-/// A band leaving the margin the robot stands in may come this much closer than the
-/// robot is now (clearances are measured to grid cells; turning changes them a little).
-const ESCAPE_TOLERANCE: f64 = 0.01;
 
 /// First segment whose velocity change (from the measured velocity, from the previous
 /// segment, or to rest at the end) exceeds `ACCELERATION_TOLERANCE` x its limit,
@@ -65,11 +62,8 @@ pub(crate) struct Verdict {
 }
 
 /// Checks the band. Pose 0 (the robot now) counts only for collision, since the
-/// robot cannot undo a margin it has already lost; a robot standing inside the margin
-/// may leave it: until the band first clears 0.9 x the margin, its poses only have to
-/// stay as clear as the robot is now (less `ESCAPE_TOLERANCE`). Otherwise every band
-/// stays infeasible and every replan starts inside the margin again. `timing` holds the
-/// measured start velocity and the acceleration limits.
+/// robot cannot undo a margin it has already lost. `timing` holds the measured start
+/// velocity and the acceleration limits.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn check(
     band: &Band,
@@ -97,8 +91,6 @@ pub(crate) fn check(
         return v;
     }
     let mut first_margin: Option<usize> = None;
-    let required = 0.9 * margin;
-    let mut escaping = start < required;
     for k in 0..n - 1 {
         let a = band.poses[k];
         let b = band.poses[k + 1];
@@ -120,13 +112,7 @@ pub(crate) fn check(
                 v.last_feasible_index = k;
                 return v;
             }
-            escaping &= d < required;
-            let floor = if escaping {
-                start - ESCAPE_TOLERANCE
-            } else {
-                required
-            };
-            if d < floor && first_margin.is_none() {
+            if d < 0.9 * margin && first_margin.is_none() {
                 first_margin = Some(k);
             }
         }
@@ -202,62 +188,5 @@ mod tests {
         assert_eq!(verdict.last_feasible_index, 0);
         assert_eq!(verdict.flag.code(), 6);
         assert!(!verdict.flag.stops_robot());
-    }
-
-    /// A band along +x from `x0` in steps of 0.1 m, 0.3 s each.
-    fn band_from(x0: f64, poses: usize) -> Band {
-        let mut band = Band::default();
-        for k in 0..poses {
-            band.poses.push(Pose2::new(x0 + 0.1 * k as f64, 0.0, 0.0));
-        }
-        band.dts = vec![0.3; poses - 1];
-        band
-    }
-
-    #[test]
-    fn a_robot_inside_the_margin_may_leave_it_but_not_go_deeper() {
-        // A wall of cells at x < -0.5; the robot (0.5 m long) stands 0.05 m off it with a
-        // 0.2 m margin.
-        let mut map = GridMap::new_free(-2.0, -2.0, 0.05, 4.0, 4.0).unwrap();
-        for iy in 0..map.height {
-            for ix in 0..30 {
-                map.cells[iy * map.width + ix] = aisle_geometry::OCCUPIED_STATIC;
-            }
-        }
-        let fp = Footprint::new(0.5, 0.4);
-        let timing = Timing {
-            v0: 0.0,
-            w0: 0.0,
-            at_rest: true,
-            max_acceleration: 10.0,
-            max_angular_acceleration: 10.0,
-        };
-        let away = check(
-            &band_from(-0.2, 6),
-            &map.view(),
-            &fp,
-            0.2,
-            0.02,
-            0.0,
-            &timing,
-        );
-        assert_eq!(away.flag, ExitFlag::Valid, "leaving the margin");
-        let mut toward = band_from(-0.2, 6);
-        for p in &mut toward.poses {
-            p.x = -0.2 - (p.x + 0.2) * 0.04;
-        }
-        let deeper = check(&toward, &map.view(), &fp, 0.2, 0.02, 0.0, &timing);
-        assert_eq!(
-            deeper.flag,
-            ExitFlag::MarginViolated,
-            "closing in on the wall"
-        );
-        // Once out of the margin, coming back into it is a violation again.
-        let mut back = band_from(-0.2, 12);
-        for (k, p) in back.poses.iter_mut().enumerate().skip(6) {
-            p.x = -0.2 + 0.1 * (11 - k) as f64;
-        }
-        let again = check(&back, &map.view(), &fp, 0.2, 0.02, 0.0, &timing);
-        assert_eq!(again.flag, ExitFlag::MarginViolated, "back into the margin");
     }
 }
