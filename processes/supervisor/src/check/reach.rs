@@ -46,7 +46,7 @@ pub enum Verdict {
 
 /// The 8 neighbours of a cell: a path of the robot's centre moves between cells that
 /// share an edge or a corner.
-const NEIGHBOURS: [(i64, i64); 8] = [
+pub(crate) const NEIGHBOURS: [(i64, i64); 8] = [
     (1, 0),
     (-1, 0),
     (0, 1),

@@ -50,16 +50,7 @@ pub fn route(map: &GridView, radius: f64, from: (f64, f64), to: (f64, f64)) -> V
         &a,
         |&(x, y)| {
             let mut next = Vec::with_capacity(8);
-            for (dx, dy) in [
-                (1, 0),
-                (-1, 0),
-                (0, 1),
-                (0, -1),
-                (1, 1),
-                (1, -1),
-                (-1, 1),
-                (-1, -1),
-            ] {
+            for (dx, dy) in crate::check::reach::NEIGHBOURS {
                 let c = (x + dx, y + dy);
                 if c == b || open(c) {
                     next.push((c, if dx != 0 && dy != 0 { 14 } else { 10 }));
