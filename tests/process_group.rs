@@ -334,6 +334,16 @@ fn assert_profile_matches_the_run(dir: &TestDir, file: &std::path::Path) {
         assert!(s.budget_ms.is_some(), "{} not scored", s.stage);
     }
     assert_eq!(report.tick_release, profiled.tick_release);
+    let lidar = report.latency.iter().find(|s| s.stage == "lidar").unwrap();
+    assert!(
+        lidar.cpu_p50_ms.is_some_and(|c| c > 0.0),
+        "the lidar's CPU time"
+    );
+    let node = report.processes.iter().find(|p| p.process == "mapper");
+    assert!(
+        node.is_some_and(|p| p.peak_rss_kib > 0 && p.minor_faults > 0),
+        "{node:?}"
+    );
     assert!(report.tick_release.unwrap().lateness.is_none(), "lockstep");
     // Every sample, once, in both exports.
     let sorted = |text: String, keep: &dyn Fn(&str) -> bool| {

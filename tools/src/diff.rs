@@ -30,12 +30,13 @@ impl std::fmt::Display for FieldDiff {
 }
 
 /// Fields measured on the wall clock, which differ between any two runs.
-pub const WALL_CLOCK_FIELDS: [&str; 5] = [
+pub const WALL_CLOCK_FIELDS: [&str; 6] = [
     "header.seq",
     "header.tick_wall_ns",
     "header.publish_wall_ns",
     "solve_ns",
     "compute_ns",
+    "cpu_ns",
 ];
 
 /// The first field (in declaration order, depth first) whose bytes differ between `a`

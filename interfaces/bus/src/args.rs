@@ -4,15 +4,27 @@
 use crate::clock;
 use std::time::Duration;
 
-/// Times a stage's work on the monotonic clock (node adapters only).
-pub struct StageTimer(u64);
+/// Times a stage's work on the monotonic clock and on the calling thread's CPU clock
+/// (node adapters only).
+pub struct StageTimer {
+    wall: u64,
+    cpu: u64,
+}
 
 impl StageTimer {
     pub fn start() -> Self {
-        StageTimer(clock::monotonic_ns())
+        StageTimer {
+            wall: clock::monotonic_ns(),
+            cpu: clock::thread_cpu_ns(),
+        }
     }
+    /// Wall time since the start.
     pub fn elapsed_ns(&self) -> u64 {
-        clock::monotonic_ns().saturating_sub(self.0)
+        clock::monotonic_ns().saturating_sub(self.wall)
+    }
+    /// CPU time this thread consumed since the start.
+    pub fn cpu_ns(&self) -> u64 {
+        clock::thread_cpu_ns().saturating_sub(self.cpu)
     }
 }
 

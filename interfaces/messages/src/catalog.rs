@@ -89,7 +89,7 @@ message!(
 
 message!(
     /// A stage finished its work for `header.tick`.
-    TickDone = "aisle.TickDone.v1" size 64 {
+    TickDone = "aisle.TickDone.v2" size 72 {
         header: Header,
         /// `NodeKind` code of the stage.
         node: u32,
@@ -97,6 +97,9 @@ message!(
         status: u32,
         /// Wall time the stage spent computing for this tick.
         compute_ns: u64,
+        /// CPU time of the computing thread over the cycle (CLOCK_THREAD_CPUTIME_ID);
+        /// 0 when not measured.
+        cpu_ns: u64,
     }
 );
 

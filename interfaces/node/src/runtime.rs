@@ -53,6 +53,7 @@ pub fn run<S: Stage>(stage: &mut S, args: &NodeArgs) -> Result<(), NodeError> {
                 m.node = kind as u32;
                 m.status = cycle.status as u32;
                 m.compute_ns = compute_ns;
+                m.cpu_ns = timer.cpu_ns();
             })?;
         }
         io.on_slice();

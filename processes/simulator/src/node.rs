@@ -283,6 +283,7 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
             d.node = NodeKind::Simulator as u32;
             d.status = StageStatus::Done as u32;
             d.compute_ns = compute_ns;
+            d.cpu_ns = timer.cpu_ns();
         })?;
         k += 1;
     }

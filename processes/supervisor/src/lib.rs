@@ -36,3 +36,4 @@ pub mod scenario;
 pub mod scenario_cli;
 pub mod session;
 pub mod sweep;
+pub mod usage;

@@ -3,6 +3,7 @@
 
 use crate::collisions::CollisionEvent;
 use crate::mission::LegResult;
+use crate::usage::ProcessUsage;
 use aisle_tools::latency::{Summary, TickRelease};
 use serde::{Deserialize, Serialize};
 
@@ -50,6 +51,9 @@ pub struct RunReport {
     /// When ticks started against the ideal schedule (realtime); not scored.
     #[serde(default)]
     pub tick_release: Option<TickRelease>,
+    /// Per process: peak RSS, context switches, page faults, CPU time.
+    #[serde(default)]
+    pub processes: Vec<ProcessUsage>,
     /// t, x, y, heading of the robot at every tick (ground truth).
     pub driven_path: Vec<[f64; 4]>,
     pub reference_paths: Vec<ReferencePath>,

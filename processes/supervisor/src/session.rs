@@ -133,6 +133,9 @@ pub fn run(opts: &RunOptions) -> anyhow::Result<RunOutcome> {
             })
         );
     }
+    if !report.processes.is_empty() {
+        print!("{}", crate::usage::format_table(&report.processes));
+    }
     if let Some((path, written)) = samples {
         written.with_context(|| format!("writing the samples {}", path.display()))?;
     }

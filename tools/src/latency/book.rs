@@ -17,11 +17,19 @@ pub struct LatencyTable {
     pub tick_release: Option<TickRelease>,
 }
 
-/// Every sample of a run: `(tick, nanoseconds)` per series in arrival order, and the
-/// start of every tick.
+/// One sample: its tick, its value and (a stage's compute time) the CPU time of the
+/// computing thread, 0 when not measured.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Sample {
+    tick: u64,
+    ns: u64,
+    cpu_ns: u64,
+}
+
+/// Every sample of a run, per series in arrival order, and the start of every tick.
 #[derive(Debug, Default, Clone)]
 pub struct SampleBook {
-    series: BTreeMap<String, Vec<(u64, u64)>>,
+    series: BTreeMap<String, Vec<Sample>>,
     /// `(tick, tick_wall_ns)` of every tick seen.
     releases: Vec<(u64, u64)>,
     dt_ns: u64,
@@ -33,10 +41,16 @@ pub struct SampleBook {
 impl SampleBook {
     /// One sample of `stage` for `tick`.
     pub fn record(&mut self, stage: &str, tick: u64, ns: u64) {
+        self.record_cpu(stage, tick, ns, 0);
+    }
+
+    /// One compute sample of `stage` for `tick` with the CPU time it cost (0: unknown).
+    pub fn record_cpu(&mut self, stage: &str, tick: u64, ns: u64, cpu_ns: u64) {
+        let s = Sample { tick, ns, cpu_ns };
         match self.series.get_mut(stage) {
-            Some(v) => v.push((tick, ns)),
+            Some(v) => v.push(s),
             None => {
-                self.series.insert(stage.to_string(), vec![(tick, ns)]);
+                self.series.insert(stage.to_string(), vec![s]);
             }
         }
     }
@@ -51,7 +65,7 @@ impl SampleBook {
     /// A stage's acknowledgement: its compute time (see [`Self::compute_stage`]).
     pub fn record_done(&mut self, d: &TickDone) {
         if let Some(stage) = Self::compute_stage(d) {
-            self.record(stage, d.header.tick, d.compute_ns);
+            self.record_cpu(stage, d.header.tick, d.compute_ns, d.cpu_ns);
         }
     }
 
@@ -85,8 +99,16 @@ impl SampleBook {
         self.end.is_none_or(|end| tick < end)
     }
 
-    /// The series in table order, with their samples in the window.
+    /// The series in table order, with their samples `(tick, ns)` in the window.
     pub fn series(&self) -> Vec<(&str, Vec<(u64, u64)>)> {
+        self.windowed()
+            .into_iter()
+            .map(|(name, v)| (name, v.iter().map(|s| (s.tick, s.ns)).collect()))
+            .collect()
+    }
+
+    /// The series in table order, with their samples in the window.
+    fn windowed(&self) -> Vec<(&str, Vec<Sample>)> {
         let ordered = STAGE_ORDER
             .iter()
             .filter_map(|s| self.series.get_key_value(*s))
@@ -97,7 +119,11 @@ impl SampleBook {
             );
         ordered
             .map(|(name, v)| {
-                let kept = v.iter().copied().filter(|s| self.in_window(s.0)).collect();
+                let kept = v
+                    .iter()
+                    .copied()
+                    .filter(|s| self.in_window(s.tick))
+                    .collect();
                 (name.as_str(), kept)
             })
             .filter(|(_, v): &(&str, Vec<_>)| !v.is_empty())
@@ -113,11 +139,13 @@ impl SampleBook {
     /// or every series when there are none, is not scored).
     pub fn summarise(&self, budgets: Option<&Budgets>) -> LatencyTable {
         let stages = self
-            .series()
+            .windowed()
             .into_iter()
             .filter_map(|(name, v)| {
-                let values: Vec<u64> = v.iter().map(|s| s.1).collect();
-                Summary::of(name, &values, budgets.and_then(|b| b.of(name)))
+                let values: Vec<u64> = v.iter().map(|s| s.ns).collect();
+                let cpu: Vec<u64> = v.iter().map(|s| s.cpu_ns).filter(|&c| c > 0).collect();
+                let summary = Summary::of(name, &values, budgets.and_then(|b| b.of(name)))?;
+                Some(summary.with_cpu(&cpu))
             })
             .collect();
         let releases = self.releases();
@@ -128,17 +156,22 @@ impl SampleBook {
         }
     }
 
-    /// Every sample as CSV (`stage,tick,ms`): the series in table order, then (in
-    /// realtime) each tick's release lateness.
+    /// Every sample as CSV (`stage,tick,ms,cpu_ms`, the CPU time empty where it is
+    /// not measured): the series in table order, then (in realtime) each tick's
+    /// release lateness.
     pub fn write_csv(&self, mut out: impl Write) -> std::io::Result<()> {
-        writeln!(out, "stage,tick,ms")?;
-        for (name, v) in self.series() {
-            for (tick, ns) in v {
-                writeln!(out, "{name},{tick},{:.6}", ns as f64 / 1e6)?;
+        writeln!(out, "stage,tick,ms,cpu_ms")?;
+        for (name, v) in self.windowed() {
+            for s in v {
+                write!(out, "{name},{},{:.6},", s.tick, s.ns as f64 / 1e6)?;
+                if s.cpu_ns > 0 {
+                    write!(out, "{:.6}", s.cpu_ns as f64 / 1e6)?;
+                }
+                writeln!(out)?;
             }
         }
         for (tick, ns) in self.release_lateness() {
-            writeln!(out, "{LATENESS},{tick},{:.6}", ns as f64 / 1e6)?;
+            writeln!(out, "{LATENESS},{tick},{:.6},", ns as f64 / 1e6)?;
         }
         out.flush()
     }
@@ -182,7 +215,9 @@ mod tests {
     #[test]
     fn messages_become_samples_by_one_rule() {
         let mut book = SampleBook::default();
-        book.record_done(&done(NodeKind::Lidar, 0, StageStatus::Done, 3_000_000));
+        let mut lidar = done(NodeKind::Lidar, 0, StageStatus::Done, 3_000_000);
+        lidar.cpu_ns = 2_500_000;
+        book.record_done(&lidar);
         book.record_done(&done(NodeKind::TebController, 0, StageStatus::Idle, 1));
         book.record_done(&done(NodeKind::Recorder, 0, StageStatus::Done, 0));
         let mut h = *zeroed_box::<Header>();
@@ -195,6 +230,8 @@ mod tests {
         let names: Vec<&str> = t.stages.iter().map(|s| s.stage.as_str()).collect();
         assert_eq!(names, ["lidar", "end_to_end", "zeta"]);
         assert_eq!((t.stages[0].misses, t.stages[0].budget_ms), (1, Some(2.0)));
+        assert_eq!(t.stages[0].cpu_p99_ms, Some(2.5));
+        assert_eq!(t.stages[1].cpu_p99_ms, None, "not a compute sample");
         assert_eq!(t.stages[1].samples, 1);
         assert_eq!(t.stages[2].budget_ms, None);
         assert!(t.tick_release.is_none());
@@ -223,9 +260,9 @@ mod tests {
         book.write_csv(&mut csv).unwrap();
         let csv = String::from_utf8(csv).unwrap();
         let lines: Vec<&str> = csv.lines().collect();
-        assert_eq!(lines[0], "stage,tick,ms");
-        assert_eq!(lines[1], "lidar,0,1.000000");
+        assert_eq!(lines[0], "stage,tick,ms,cpu_ms");
+        assert_eq!(lines[1], "lidar,0,1.000000,");
         assert_eq!(lines.len(), 1 + 4 + 4);
-        assert_eq!(lines[8], "tick release lateness,3,0.000003");
+        assert_eq!(lines[8], "tick release lateness,3,0.000003,");
     }
 }

@@ -27,6 +27,11 @@ pub struct Summary {
     pub budget_ms: Option<f64>,
     /// Samples strictly over the budget.
     pub misses: usize,
+    /// CPU time of the computing thread (median, p99), where the stage reports it.
+    #[serde(default)]
+    pub cpu_p50_ms: Option<f64>,
+    #[serde(default)]
+    pub cpu_p99_ms: Option<f64>,
 }
 
 impl Summary {
@@ -54,7 +59,20 @@ impl Summary {
             jitter_ms: var.sqrt() / 1e6,
             budget_ms,
             misses: budget_ms.map_or(0, |b| v.iter().filter(|&&x| ms(x) > b).count()),
+            cpu_p50_ms: None,
+            cpu_p99_ms: None,
         })
+    }
+
+    /// With the CPU-time figures of `cpu` (nanoseconds; nothing when empty).
+    pub fn with_cpu(mut self, cpu: &[u64]) -> Summary {
+        if !cpu.is_empty() {
+            let mut v = cpu.to_vec();
+            v.sort_unstable();
+            self.cpu_p50_ms = Some(nearest_rank(&v, 0.5) as f64 / 1e6);
+            self.cpu_p99_ms = Some(nearest_rank(&v, 0.99) as f64 / 1e6);
+        }
+        self
     }
 }
 

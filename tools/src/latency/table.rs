@@ -17,16 +17,30 @@ pub fn format_table(t: &LatencyTable) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
-        "{:<width$} {:>7} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>6}",
-        "stage [ms]", "samples", "p50", "p90", "p99", "p99.9", "max", "jitter", "budget", "misses"
+        "{:<width$} {:>7} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>6} {:>8} {:>8}",
+        "stage [ms]",
+        "samples",
+        "p50",
+        "p90",
+        "p99",
+        "p99.9",
+        "max",
+        "jitter",
+        "budget",
+        "misses",
+        "cpu p50",
+        "cpu p99"
     );
+    let opt = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.3}"));
     for s in &t.stages {
         let _ = writeln!(
             out,
-            "{} {:>8} {:>6}",
+            "{} {:>8} {:>6} {:>8} {:>8}",
             row(s, width),
             s.budget_ms.map_or("-".into(), |b| format!("{b:.1}")),
-            s.budget_ms.map_or("-".into(), |_| s.misses.to_string())
+            s.budget_ms.map_or("-".into(), |_| s.misses.to_string()),
+            opt(s.cpu_p50_ms),
+            opt(s.cpu_p99_ms)
         );
     }
     if let Some(r) = &t.tick_release {
@@ -34,7 +48,8 @@ pub fn format_table(t: &LatencyTable) -> String {
     }
     let _ = writeln!(
         out,
-        "quantiles: nearest rank; jitter: standard deviation; miss: a sample over its budget"
+        "quantiles: nearest rank; jitter: standard deviation; miss: a sample over its budget; \
+         cpu: CPU time of the computing thread"
     );
     out
 }
@@ -50,7 +65,15 @@ fn row(s: &Summary, width: usize) -> String {
 fn release(out: &mut String, r: &TickRelease, width: usize) {
     match &r.lateness {
         Some(l) => {
-            let _ = writeln!(out, "{} {:>8} {:>6}", row(l, width), "-", "-");
+            let _ = writeln!(
+                out,
+                "{} {:>8} {:>6} {:>8} {:>8}",
+                row(l, width),
+                "-",
+                "-",
+                "-",
+                "-"
+            );
             let _ = writeln!(
                 out,
                 "tick release ({}): {} ticks every {} ms, lateness against start + k*dt \
@@ -85,10 +108,10 @@ mod tests {
         let text = format_table(&t);
         let lines: Vec<&str> = text.lines().collect();
         assert!(
-            lines[1].starts_with("lidar") && lines[1].ends_with("2.0      1"),
+            lines[1].starts_with("lidar") && lines[1].contains("2.0      1"),
             "{text}"
         );
-        assert!(lines[2].ends_with("-      -"), "{text}");
+        assert!(lines[2].ends_with("-      -        -        -"), "{text}");
         assert!(lines[3].starts_with("tick release lateness"), "{text}");
         assert!(lines[4].contains("1 skipped"), "{text}");
         let lockstep = LatencyTable {

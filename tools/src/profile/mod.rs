@@ -66,6 +66,9 @@ pub struct ProfileReport {
     pub budget_source: BudgetSource,
     /// Where a damaged file stopped being readable.
     pub truncated: Option<String>,
+    /// Services recorded with another message layout than this build's (an older
+    /// record): not read.
+    pub foreign: Vec<String>,
 }
 
 /// Profiles a recorded file against its attached budgets.
@@ -174,9 +177,24 @@ pub fn profile_file(
     };
     let mut collected = Collected::default();
     let mut truncated = None;
+    // Whether each channel has this build's layout (read only if so).
+    let mut ours = std::collections::BTreeMap::new();
+    let mut foreign = Vec::new();
     for m in file.raw_messages() {
         match m {
-            Ok(m) => collected.add(m.channel.topic.as_str(), &m.data),
+            Ok(m) => {
+                let c = &m.channel;
+                let read = *ours.entry(c.id).or_insert_with(|| {
+                    let ok = crate::replay::check_channel(file.path(), c).is_ok();
+                    if !ok {
+                        foreign.push(c.topic.clone());
+                    }
+                    ok
+                });
+                if read {
+                    collected.add(c.topic.as_str(), &m.data);
+                }
+            }
             Err(e) => {
                 truncated = Some(e.to_string());
                 break;
@@ -203,6 +221,7 @@ pub fn profile_file(
         budgets,
         budget_source,
         truncated,
+        foreign,
     })
 }
 
@@ -228,6 +247,13 @@ impl ProfileReport {
         );
         if let Some(tr) = &self.truncated {
             let _ = writeln!(t, "note: {tr}");
+        }
+        if !self.foreign.is_empty() {
+            let _ = writeln!(
+                t,
+                "note: recorded with another message layout than this build's, not read: {}",
+                self.foreign.join(", ")
+            );
         }
         t
     }

@@ -139,7 +139,7 @@ fn draw_panel(
         .configure_mesh()
         .x_labels(12)
         .y_labels(6)
-        .x_desc(format!("tick (every {dt_ms} ms of sim time)"))
+        .x_desc(format!("tick (dt = {dt_ms} ms)"))
         .y_desc("ms")
         .label_style(("sans-serif", 14))
         .draw()?;
@@ -213,6 +213,6 @@ mod tests {
             "the budget in the legend"
         );
         assert!(svg.contains("\n90\n</text>"), "labelled x ticks");
-        assert!(svg.contains("tick (every 100 ms of sim time)"));
+        assert!(svg.contains("tick (dt = 100 ms)"));
     }
 }

@@ -113,7 +113,7 @@ fn every_sample_is_exported() {
     let csv = String::from_utf8(csv).unwrap();
     let total: usize = r.table.stages.iter().map(|s| s.samples).sum();
     assert_eq!(csv.lines().count(), 1 + total);
-    assert!(csv.contains("\nlidar,3,1.300000\n"), "{csv}");
+    assert!(csv.contains("\nlidar,3,1.300000,\n"), "{csv}");
 }
 
 #[test]

@@ -4,6 +4,7 @@
 use super::run_config::RunConfig;
 use super::{GRACE, RunAborted, RunOptions, Session};
 use crate::report::{BodyPose, ReferencePath, RunReport};
+use crate::usage::ProcessUsage;
 use aisle_messages::{SimCommandKind, TickMode, WorldTruth, read_name};
 use std::time::Instant;
 
@@ -25,8 +26,22 @@ impl Session {
             // Whatever happened, the robot must not keep moving.
             let _ = self.sim_command(SimCommandKind::Stop, None);
         }
+        let processes = self.usage();
         self.health.group.stop(GRACE);
-        self.report(opts, config, wall_start)
+        let mut report = self.report(opts, config, wall_start);
+        report.processes = processes;
+        report
+    }
+
+    /// Every live node's resource usage, and the supervisor's, before they stop.
+    fn usage(&self) -> Vec<ProcessUsage> {
+        let nodes = self.health.group.children.iter();
+        let live = nodes.filter(|c| c.exited.is_none());
+        let mut rows: Vec<ProcessUsage> = live
+            .filter_map(|c| crate::usage::read(c.kind.name(), c.child.id()))
+            .collect();
+        rows.extend(crate::usage::read("supervisor", std::process::id()));
+        rows
     }
 
     fn report(&mut self, opts: &RunOptions, config: &RunConfig, wall_start: Instant) -> RunReport {
@@ -56,6 +71,7 @@ impl Session {
             legs: m.results.clone(),
             latency: latency.stages,
             tick_release: latency.tick_release,
+            processes: Vec::new(),
             driven_path: std::mem::take(&mut self.driven),
             reference_paths: m
                 .reference_paths

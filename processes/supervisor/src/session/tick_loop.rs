@@ -10,7 +10,7 @@
 use super::run_config::RunConfig;
 use super::{RunAborted, RunOptions, Session};
 use crate::mission::{Action, ControllerReport};
-use aisle_bus::Stamp;
+use aisle_bus::{StageTimer, Stamp};
 use aisle_geometry::Pose2;
 use aisle_messages::{NodeKind, SimCommandKind, StageStatus, Tick, TickDone, TickMode};
 use aisle_tools::latency::SampleBook;
@@ -61,6 +61,7 @@ impl Session {
             }
             self.inject_kills(&mut kills, k);
             let work = Instant::now();
+            let cpu = StageTimer::start();
             self.observe()?;
             let mut actions = Vec::new();
             if !started {
@@ -77,10 +78,11 @@ impl Session {
             self.publish_status()?;
             self.progress(opts);
             let compute = (work.elapsed().as_nanos() as u64).saturating_sub(planner_ns);
-            self.book.record("supervisor", k, compute);
+            let done = (compute, cpu.cpu_ns());
+            self.book.record_cpu("supervisor", k, done.0, done.1);
             // In realtime nobody waits for it, but a record then holds the supervisor's
             // compute time as the run's table does.
-            self.acknowledge(&tick, Some(compute))?;
+            self.acknowledge(&tick, Some(done))?;
             self.health.restarted.clear();
             if self.mission.is_finished() {
                 return Ok(());
@@ -130,12 +132,14 @@ impl Session {
 
     /// The supervisor's own acknowledgement of `tick` (no compute time for a tick it
     /// acknowledges again without acting).
-    fn acknowledge(&mut self, tick: &Tick, compute: Option<u64>) -> Result<(), RunAborted> {
+    /// `compute`: wall and CPU time of the supervisor's work on it.
+    fn acknowledge(&mut self, tick: &Tick, compute: Option<(u64, u64)>) -> Result<(), RunAborted> {
         self.ports.tick_done.publish(Stamp::of(&tick.header), |m| {
             m.node = NodeKind::Supervisor as u32;
             m.status = StageStatus::Done as u32;
-            if let Some(compute) = compute {
-                m.compute_ns = compute;
+            if let Some((wall, cpu)) = compute {
+                m.compute_ns = wall;
+                m.cpu_ns = cpu;
             }
         })?;
         Ok(())
