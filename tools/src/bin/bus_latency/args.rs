@@ -159,7 +159,7 @@ mod tests {
     fn cloud_payload_is_the_scenario_scan() {
         assert_eq!(CLOUD_POINTS, 37_231);
         assert_eq!(Payload::Cloud.bytes(), 446_772);
-        assert_eq!(Payload::Small.bytes(), 64);
+        assert_eq!(Payload::Small.bytes(), 72);
     }
 
     #[test]

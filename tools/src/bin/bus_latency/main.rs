@@ -6,7 +6,7 @@
 //! measured on its own rather than queued behind the previous one. The child takes
 //! `monotonic_ns()` at receipt minus `header.publish_wall_ns` (CLOCK_MONOTONIC is
 //! system-wide, so the two processes' stamps can be subtracted) and prints p50/p99/max as
-//! one JSON line. Four measurements are made: a 447 KB point cloud and a 64-byte
+//! one JSON line. Four measurements are made: a 447 KB point cloud and a 72-byte
 //! `TickDone`, each with the child sleeping on the event service (`wakeup`) or busy
 //! polling `receive()` (`poll`).
 //!
