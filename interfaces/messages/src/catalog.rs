@@ -306,7 +306,7 @@ message!(
     /// The controller's band and its progress along the reference, published with
     /// history 1 so a restarted controller resumes exactly where it was (`dts` are the
     /// band's own time steps, bit for bit; `poses[i].t` is their running sum, for viewers).
-    ControllerBand = "aisle.ControllerBand.v2" size 20552 {
+    ControllerBand = "aisle.ControllerBand.v3" size 20560 {
         header: Header,
         goal_id: u64,
         len: u32,
@@ -314,6 +314,9 @@ message!(
         section: u32,
         /// Arc length along the reference reached, m.
         progress: f64,
+        /// Side the band was last pushed around a blocker: 1 left, -1 right, 0 none.
+        detour_side: i32,
+        _pad: u32,
         poses: [TimedPoseMsg; MAX_COMMANDS],
         dts: [f64; MAX_COMMANDS],
     }

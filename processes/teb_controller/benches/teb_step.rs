@@ -11,6 +11,9 @@
 //! radius curve (no target; the linearised kinematics used to reject most steps there).
 //! Last, a straight docking step (goal mode Straight, no optimiser): from 0.15 m off the
 //! line and 0.15 rad off its heading into the gap between a rack's four legs.
+//! The `mission/*` cases are the seed mission's slowest steps (`benches/cases/
+//! seed_worst.mcap`, exported from a lockstep record by `examples/export_steps.rs`), each
+//! replayed from the exact state the mission had; target p99 <= 5 ms each.
 
 use aisle_geometry::{
     CellIndex, Direction, Footprint, GridMap, OCCUPIED_DETECTED, PathPose, Pose2,
@@ -18,7 +21,13 @@ use aisle_geometry::{
 use aisle_teb_controller::{Goal, Mode, Snapshot, StepOutput, TebConfig, TebController};
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
-use std::time::Instant;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+#[path = "support/step_cases.rs"]
+mod step_cases;
+use aisle_teb_controller::case::{RecordedStep, reproduces};
+use step_cases::AlignedStep;
 
 const RES: f64 = 0.1;
 const PERIOD: f64 = 0.5;
@@ -339,5 +348,84 @@ fn docking(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, steps, docking);
+/// Times `step` from its recorded state `n` times; sorted times in ms.
+fn replay_times(step: &mut RecordedStep, n: usize) -> Vec<f64> {
+    let mut times: Vec<f64> = (0..n)
+        .map(|_| {
+            step.reset().expect("reset");
+            let t0 = Instant::now();
+            black_box(step.step().expect("step").exit_flag);
+            t0.elapsed().as_secs_f64() * 1e3
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    times
+}
+
+/// The mission's worst steps, replayed from the state the mission had, under the
+/// seed's `config/teb.toml`.
+fn mission(c: &mut Criterion) {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let cfg: TebConfig =
+        aisle_config::load(&dir.join("../../config/teb.toml")).expect("config/teb.toml");
+    let cases = dir.join("benches/cases/seed_worst.mcap");
+    let steps = step_cases::steps_in(&cases).expect("the exported steps");
+    let mut group = c.benchmark_group("teb_step/mission");
+    let mut all = Vec::new();
+    for s in &steps {
+        let aligned = AlignedStep::of(s);
+        let inputs = aligned.inputs().expect("step messages");
+        let mut step = RecordedStep::new(cfg.clone(), &inputs).expect("a step");
+        let name = format!("t{:.1}s", s.trajectory.publish_time as f64 * 1e-9);
+        let warm = step.warm_poses();
+        let out = step.step().expect("step");
+        let recorded = aligned.trajectory().expect("trajectory");
+        println!(
+            "mission {name}: {} poses ({} warm), {} iterations (recorded {}, {:.2} ms), \
+             flag {}, {}",
+            out.poses.len(),
+            warm,
+            out.iterations,
+            recorded.iterations,
+            recorded.solve_ns as f64 * 1e-6,
+            out.exit_flag.code(),
+            if reproduces(out, recorded) {
+                "the recorded step bit for bit"
+            } else {
+                "differs from the recorded step (an older build's record)"
+            }
+        );
+        let times = replay_times(&mut step, 100);
+        println!(
+            "mission {name}: p50 {:.3} ms, p99 {:.3} ms, max {:.3} ms (100 steps)",
+            percentile(&times, 0.5),
+            percentile(&times, 0.99),
+            percentile(&times, 1.0)
+        );
+        all.extend(times);
+        group.bench_function(name, |b| {
+            b.iter_custom(|iters| {
+                let mut total = Duration::ZERO;
+                for _ in 0..iters {
+                    step.reset().expect("reset");
+                    let t0 = Instant::now();
+                    black_box(step.step().expect("step").exit_flag);
+                    total += t0.elapsed();
+                }
+                total
+            })
+        });
+    }
+    all.sort_by(f64::total_cmp);
+    println!(
+        "mission: {} worst steps together: p50 {:.3} ms, p99 {:.3} ms, max {:.3} ms",
+        steps.len(),
+        percentile(&all, 0.5),
+        percentile(&all, 0.99),
+        percentile(&all, 1.0)
+    );
+    group.finish();
+}
+
+criterion_group!(benches, steps, docking, mission);
 criterion_main!(benches);

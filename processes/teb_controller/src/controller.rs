@@ -13,6 +13,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::band::Band;
 use crate::config::TebConfig;
+use crate::detour::Side;
 use crate::feasibility;
 use crate::goal::{Goal, Mode};
 use crate::leg::{Active, Leg};
@@ -30,6 +31,10 @@ pub struct Snapshot {
     pub section: usize,
     /// Arc length along the reference the robot has reached, m.
     pub progress: f64,
+    /// Side the band was last pushed around a blocker (1 left, -1 right, 0 none): the
+    /// next detour keeps to it.
+    #[serde(default)]
+    pub detour_side: i8,
 }
 
 /// Timed-elastic-band local controller.
@@ -130,6 +135,7 @@ impl TebController {
             band: self.planner.band.clone(),
             section,
             progress,
+            detour_side: self.planner.side.map_or(0, Side::code),
         }
     }
 
@@ -160,6 +166,7 @@ impl TebController {
         active.progress = snap.progress;
         self.planner.band.copy_from(&snap.band);
         self.planner.band.unwrap_headings();
+        self.planner.side = Side::from_code(snap.detour_side);
         Ok(())
     }
 

@@ -25,6 +25,23 @@ impl Side {
         }
     }
 
+    /// 1 left, -1 right (as a snapshot stores it).
+    pub fn code(self) -> i8 {
+        match self {
+            Side::Left => 1,
+            Side::Right => -1,
+        }
+    }
+
+    /// The side of [`Side::code`]; anything else is none.
+    pub fn from_code(code: i8) -> Option<Side> {
+        match code {
+            1 => Some(Side::Left),
+            -1 => Some(Side::Right),
+            _ => None,
+        }
+    }
+
     pub fn other(self) -> Side {
         match self {
             Side::Left => Side::Right,

@@ -21,6 +21,7 @@
 //! ```
 
 mod band;
+pub mod case;
 mod clearance;
 mod config;
 mod controller;
@@ -37,6 +38,7 @@ mod output;
 mod planner;
 mod qp;
 mod reference;
+pub mod resume;
 mod scp;
 mod seed;
 mod straight;

@@ -17,12 +17,13 @@
 //! Adapter only: the optimisation is [`crate::TebController`]; the loop around it is
 //! the node runtime's (`aisle_node::run`).
 
-use crate::{Band, Goal, Mode, Snapshot, StepOutput, TebConfig, TebController};
+use crate::resume::{goal_of, snapshot_of};
+use crate::{Snapshot, StepOutput, TebConfig, TebController};
 use aisle_bus::{NodeArgs, NodeError, StageTimer, Stamp};
-use aisle_geometry::{Footprint, PathPose, Pose2};
+use aisle_geometry::Pose2;
 use aisle_messages::{
-    ControllerBand, ControllerGoal, GoalMode, GridCopy, MAX_COMMANDS, NodeKind, STAGE_CONTROLLER,
-    StageStatus, Tick, TickMode, Topic, Trajectory, topics,
+    ControllerBand, GridCopy, MAX_COMMANDS, NodeKind, STAGE_CONTROLLER, StageStatus, Tick,
+    TickMode, Topic, Trajectory, topics,
 };
 use aisle_node::{Cycle, Io, RunContext, Stage};
 use std::time::Duration;
@@ -74,54 +75,6 @@ enum Outcome<'a> {
 struct Task {
     goal_id: u64,
     active: bool,
-}
-
-fn goal_of(msg: &ControllerGoal) -> Option<Result<Goal, String>> {
-    let footprint = Footprint::new(msg.footprint_length, msg.footprint_width);
-    let mode = match GoalMode::from_u32(msg.mode) {
-        Some(GoalMode::Idle) => return None,
-        Some(GoalMode::Follow) => Mode::Follow,
-        Some(GoalMode::RotateInPlace) => Mode::RotateInPlace {
-            target_heading: msg.target.theta,
-        },
-        Some(GoalMode::Straight) => Mode::Straight {
-            target: msg.target.into(),
-        },
-        None => return Some(Err(format!("unknown goal mode {}", msg.mode))),
-    };
-    let n = (msg.len as usize).min(msg.reference.len());
-    let reference: Option<Vec<PathPose>> = msg.reference[..n]
-        .iter()
-        .map(|p| p.to_path_pose())
-        .collect();
-    let Some(reference) = reference else {
-        return Some(Err("a reference pose has an unknown direction".into()));
-    };
-    Some(Ok(Goal {
-        reference,
-        footprint,
-        margin: msg.margin,
-        mode,
-        tolerance: tolerance_of(msg),
-    }))
-}
-
-/// The goal's own tolerance when the supervisor filled one in (three positive finite
-/// numbers); otherwise `None`, and the controller uses `teb.toml`'s
-/// `band.goal_tolerance` (an older sender leaves the field zero).
-fn tolerance_of(msg: &ControllerGoal) -> Option<[f64; 3]> {
-    let tol = msg.goal_tolerance;
-    if tol.iter().all(|t| t.is_finite() && *t > 0.0) {
-        return Some(tol);
-    }
-    if tol.iter().any(|t| *t != 0.0) {
-        tracing::warn!(
-            "teb_controller: goal {}: goal_tolerance {tol:?} is not three positive \
-             numbers; using teb.toml band.goal_tolerance",
-            msg.goal_id
-        );
-    }
-    None
 }
 
 /// The controller as a stage: one TEB step on every controller tick.
@@ -342,6 +295,7 @@ fn fill_band(m: &mut ControllerBand, snap: &Snapshot, goal_id: u64) {
     m.len = n as u32;
     m.section = snap.section as u32;
     m.progress = snap.progress;
+    m.detour_side = i32::from(snap.detour_side);
     let mut t = 0.0;
     for (i, (dst, p)) in m.poses.iter_mut().zip(&b.poses[..n]).enumerate() {
         dst.t = t;
@@ -395,19 +349,7 @@ impl Stage for ControllerStage {
         // fresh band from where it stands. In lockstep nothing moved, and resuming the
         // band keeps the run identical to an undisturbed one.
         if ctx.mode == TickMode::Lockstep && b.goal_id == self.task.goal_id && self.task.active {
-            let n = (b.len as usize).min(MAX_COMMANDS);
-            let band = Band {
-                poses: b.poses[..n]
-                    .iter()
-                    .map(|p| Pose2::new(p.x, p.y, p.theta))
-                    .collect(),
-                dts: b.dts[..n.saturating_sub(1)].to_vec(),
-            };
-            let snap = Snapshot {
-                band,
-                section: b.section as usize,
-                progress: b.progress,
-            };
+            let snap = snapshot_of(&b);
             self.teb
                 .restore(&snap)
                 .map_err(|e| NodeError::Protocol(format!("teb_controller: resuming band: {e}")))?;
@@ -482,6 +424,8 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::Mode;
+    use aisle_messages::{ControllerGoal, GoalMode};
     use aisle_node::testing::MemIo;
 
     fn stage() -> ControllerStage {

@@ -527,6 +527,37 @@ fn a_restarted_controller_continues_from_the_snapshot() {
 }
 
 #[test]
+fn a_controller_restarted_at_any_step_of_a_detour_steps_as_the_undisturbed_one() {
+    // The box forces a detour; the side it went around must survive a restart, or
+    // the next detour may pick the other side and the runs part.
+    let boxes: Boxes = vec![[4.7, -0.3, 5.3, 0.3]];
+    let goal = follow(straight_path(0.0, 10.0, 0.0), ROBOT, 0.1);
+    let mut a = TebController::new(TebConfig::default()).unwrap();
+    a.set_goal(&goal).unwrap();
+    let (mut pose, mut v, mut t) = (Pose2::new(0.0, 0.0, 0.0), 0.0, 0.0);
+    let mut sided = 0;
+    for _ in 0..16 {
+        let snap = a.snapshot();
+        sided += usize::from(snap.detour_side != 0);
+        let map = local_map(&pose, &boxes);
+        let expect = a.step(pose, (v, 0.0), t, &map.view()).unwrap().clone();
+        let mut b = TebController::new(TebConfig::default()).unwrap();
+        b.set_goal(&goal).unwrap();
+        b.restore(&snap).unwrap();
+        assert_eq!(b.snapshot().detour_side, snap.detour_side, "at t = {t}");
+        let got = b.step(pose, (v, 0.0), t, &map.view()).unwrap();
+        assert_eq!(*got, expect, "at t = {t}");
+        if expect.reached_goal || expect.poses.len() < 3 {
+            break;
+        }
+        pose = expect.poses[2].pose;
+        v = expect.commands[1].v;
+        t += 0.5;
+    }
+    assert!(sided > 0, "no step started from a detour side");
+}
+
+#[test]
 fn rotate_in_place_turns_to_the_heading_within_the_limits() {
     let cfg = TebConfig::default();
     let goal = Goal {

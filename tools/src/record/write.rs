@@ -109,8 +109,27 @@ struct WriteLoop<W: std::io::Write + std::io::Seek> {
     flush_period_ns: u64,
 }
 
+/// Puts the calling thread (and the compression worker it starts) in `SCHED_IDLE`: it
+/// runs only on a core no stage wants, so encoding and compressing the record never
+/// delays a stage. The drain thread, which copies out of shared memory and acknowledges
+/// lockstep ticks, keeps its normal priority; the queue between them (`queue_bytes`)
+/// absorbs the backlog. Lowering its own priority needs no privilege; if the OS still
+/// refuses, the recorder says so once and writes at normal priority.
+fn run_only_when_idle() {
+    let param = libc::sched_param { sched_priority: 0 };
+    // SAFETY: plain system call on the calling thread (pid 0) with a valid parameter.
+    let rc = unsafe { libc::sched_setscheduler(0, libc::SCHED_IDLE, &param) };
+    if rc != 0 {
+        tracing::warn!(
+            "recorder: the writer thread stays at normal priority (SCHED_IDLE refused: {})",
+            std::io::Error::last_os_error()
+        );
+    }
+}
+
 impl<W: std::io::Write + std::io::Seek> WriteLoop<W> {
     fn run(self) -> Result<WriteCounts, WriteError> {
+        run_only_when_idle();
         let WriteLoop {
             mut writer,
             jobs,
