@@ -10,6 +10,12 @@
 //! exported step is first replayed here and must reproduce the recorded trajectory bit
 //! for bit, or the export fails: a case that is not the mission's step would measure
 //! something else. Prints each step's recorded and replayed time and its SCP iterations.
+//!
+//! `--evaluate` instead replays every step of the record from the state the mission had
+//! (open loop: this build's controller on the recorded inputs) and prints the step
+//! times (p50, p99, max), the subproblems, and each step's cost against the same step
+//! with its SCP run to convergence: how a controller change moves the tail and the
+//! optimality, on the mission's own steps. Writes nothing.
 
 #[path = "../benches/support/step_cases.rs"]
 mod step_cases;
@@ -24,15 +30,16 @@ use step_cases::{AlignedStep, StepMessages, steps_in};
 
 struct Args {
     record: PathBuf,
-    out: PathBuf,
+    out: Option<PathBuf>,
+    evaluate: bool,
     worst: usize,
     config: PathBuf,
 }
 
 fn parse() -> Result<Args, String> {
-    let usage = "usage: export_steps RECORD OUT.mcap [--worst N] [--config DIR]";
+    let usage = "usage: export_steps RECORD (OUT.mcap [--worst N] | --evaluate) [--config DIR]";
     let mut pos = Vec::new();
-    let (mut worst, mut config) = (6, PathBuf::from("config"));
+    let (mut worst, mut config, mut evaluate) = (6, PathBuf::from("config"), false);
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
         match a.as_str() {
@@ -43,14 +50,22 @@ fn parse() -> Result<Args, String> {
                     .map_err(|_| format!("--worst {v:?} is not a count"))?;
             }
             "--config" => config = it.next().ok_or(usage)?.into(),
+            "--evaluate" => evaluate = true,
             _ if a.starts_with("--") => return Err(format!("unknown option {a}; {usage}")),
             _ => pos.push(PathBuf::from(a)),
         }
     }
-    let [record, out] = <[PathBuf; 2]>::try_from(pos).map_err(|_| usage.to_string())?;
+    let mut pos = pos.into_iter();
+    let (Some(record), out, None) = (pos.next(), pos.next(), pos.next()) else {
+        return Err(usage.to_string());
+    };
+    if out.is_some() == evaluate {
+        return Err(usage.to_string());
+    }
     Ok(Args {
         record,
         out,
+        evaluate,
         worst,
         config,
     })
@@ -60,8 +75,9 @@ fn recorded_ns(s: &StepMessages) -> Result<u64, String> {
     Ok(AlignedStep::of(s).trajectory()?.solve_ns)
 }
 
-/// Replays `s`; its wall time in ms and SCP iterations, or why it is not the run's step.
-fn replay(cfg: &TebConfig, s: &StepMessages) -> Result<(f64, usize), String> {
+/// Replays `s`; its wall time in ms, SCP iterations and cost, or why it is not the run's
+/// step.
+fn replay(cfg: &TebConfig, s: &StepMessages) -> Result<(f64, usize, f64), String> {
     let aligned = AlignedStep::of(s);
     let mut step = RecordedStep::new(cfg.clone(), &aligned.inputs()?)?;
     let start = Instant::now();
@@ -70,7 +86,7 @@ fn replay(cfg: &TebConfig, s: &StepMessages) -> Result<(f64, usize), String> {
     if !reproduces(out, aligned.trajectory()?) {
         return Err("the replayed step differs from the recorded trajectory".into());
     }
-    Ok((ms, out.iterations))
+    Ok((ms, out.iterations, out.cost))
 }
 
 fn write(out: &std::path::Path, steps: &[&StepMessages]) -> Result<(), String> {
@@ -107,6 +123,9 @@ fn run() -> Result<(), String> {
     let teb = args.config.join("teb.toml");
     let cfg: TebConfig = aisle_config::load(&teb).map_err(|e| e.to_string())?;
     let steps = steps_in(&args.record)?;
+    if args.evaluate {
+        return evaluate(&cfg, &steps);
+    }
     let mut timed = Vec::new();
     for s in &steps {
         timed.push((recorded_ns(s)?, s));
@@ -119,22 +138,71 @@ fn run() -> Result<(), String> {
         args.record.display()
     );
     for (ns, s) in &timed {
-        let (ms, iterations) = replay(&cfg, s).map_err(|e| {
+        let (ms, iterations, cost) = replay(&cfg, s).map_err(|e| {
             format!(
                 "step at {:.1} s: {e}",
                 s.trajectory.publish_time as f64 * 1e-9
             )
         })?;
         println!(
-            "  t {:7.1} s  recorded {:6.2} ms  replayed {:6.2} ms  {} SCP iterations",
+            "  t {:7.1} s  recorded {:6.2} ms  replayed {:6.2} ms  {} SCP iterations  cost {:.4}",
             s.trajectory.publish_time as f64 * 1e-9,
             *ns as f64 * 1e-6,
             ms,
-            iterations
+            iterations,
+            cost
         );
     }
     let chosen: Vec<&StepMessages> = timed.iter().map(|(_, s)| *s).collect();
-    write(&args.out, &chosen)?;
-    println!("wrote {} steps to {}", chosen.len(), args.out.display());
+    let out = args.out.ok_or("no output file")?;
+    write(&out, &chosen)?;
+    println!("wrote {} steps to {}", chosen.len(), out.display());
+    Ok(())
+}
+
+/// The cost of the step with its SCP run to convergence (60 subproblems at most,
+/// stopping only when a subproblem promises under 1e-7 of the merit).
+fn converged_cost(cfg: &TebConfig, s: &AlignedStep) -> Result<f64, String> {
+    let mut c = cfg.clone();
+    c.solver.max_iterations = 60;
+    c.solver.tolerance = 1e-9;
+    c.solver.relative_tolerance = 1e-7;
+    let mut step = RecordedStep::new(c, &s.inputs()?)?;
+    Ok(step.step().map_err(|e| e.to_string())?.cost)
+}
+
+fn evaluate(cfg: &TebConfig, steps: &[StepMessages]) -> Result<(), String> {
+    let (mut times, mut ratios, mut subproblems) = (Vec::new(), Vec::new(), 0);
+    for s in steps {
+        let aligned = AlignedStep::of(s);
+        let mut step = RecordedStep::new(cfg.clone(), &aligned.inputs()?)?;
+        let start = Instant::now();
+        let out = step.step().map_err(|e| e.to_string())?;
+        times.push(start.elapsed().as_secs_f64() * 1e3);
+        subproblems += out.iterations;
+        if out.iterations > 0 {
+            ratios.push(out.cost / converged_cost(cfg, &aligned)?);
+        }
+    }
+    let q = |v: &mut Vec<f64>, p: f64| {
+        v.sort_by(f64::total_cmp);
+        v[((v.len() as f64 * p).ceil() as usize).clamp(1, v.len()) - 1]
+    };
+    println!(
+        "{} steps: time p50 {:.2} ms, p99 {:.2} ms, max {:.2} ms; {} subproblems",
+        times.len(),
+        q(&mut times, 0.5),
+        q(&mut times, 0.99),
+        q(&mut times, 1.0),
+        subproblems
+    );
+    println!(
+        "cost / converged cost over {} optimised steps: p50 {:.4}, p90 {:.4}, max {:.4}, min {:.4}",
+        ratios.len(),
+        q(&mut ratios, 0.5),
+        q(&mut ratios, 0.9),
+        q(&mut ratios, 1.0),
+        q(&mut ratios, 0.0)
+    );
     Ok(())
 }
