@@ -161,6 +161,11 @@ impl Stage for PlannerStage {
                 io.wait_for(topics::GLOBAL_MAP, Duration::from_millis(200), |_| true)?
                 && update(&mut self.map, &mut self.static_map, &m)
             {
+                // The tables of the static layer (first plans of a leg use it; replans
+                // ask for the detections too), built before the first request.
+                if let Ok(view) = self.static_map.view() {
+                    self.planner.prepare(&view);
+                }
                 return Ok(());
             }
         }

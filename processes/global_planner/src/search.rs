@@ -83,6 +83,12 @@ impl Planner {
         &self.cfg
     }
 
+    /// Builds (or updates) the map tables for `map` ahead of a request, so the first
+    /// request on it does not pay for them. Returns whether anything changed.
+    pub fn prepare(&mut self, map: &GridView) -> bool {
+        self.dm.ensure(map)
+    }
+
     /// Plans with the expansion budget as the only bound.
     pub fn plan(&mut self, req: &PlanRequest, map: &GridView) -> Result<Plan, PlanError> {
         self.plan_with_stop(req, map, &mut || false)
