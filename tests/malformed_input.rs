@@ -77,11 +77,18 @@ fn config_parsers(name: &str, bytes: &[u8]) {
         "mission.toml" => drop(aisle_supervisor::mission::MissionConfig::load(&p, &scene)),
         "budgets.toml" => drop(aisle_config::load::<aisle_tools::latency::Budgets>(&p)),
         "restart.toml" => drop(aisle_config::load::<aisle_supervisor::restart::RestartConfig>(&p)),
+        "realtime.toml" => drop(
+            aisle_node::realtime::RealtimeConfig::load_dir(
+                p.parent().unwrap(),
+                &aisle_node::Graph::shipped(),
+            )
+            .map(|c| c.check_cpus(&[0])),
+        ),
         other => panic!("no parser for {other}"),
     }
 }
 
-const CONFIGS: [&str; 9] = [
+const CONFIGS: [&str; 10] = [
     "warehouse.toml",
     "robot.toml",
     "lidar.toml",
@@ -91,6 +98,7 @@ const CONFIGS: [&str; 9] = [
     "mission.toml",
     "budgets.toml",
     "restart.toml",
+    "realtime.toml",
 ];
 
 proptest! {

@@ -9,10 +9,13 @@
 //!   waits, times and acknowledges.
 //! - [`Io`]: what a stage reads and writes, on the bus ([`BusIo`]) or in memory
 //!   ([`testing::MemIo`]), so a stage is unit-tested without launching anything.
+//! - [`realtime`]: the real-time execution options of `config/realtime.toml` (affinity,
+//!   SCHED_FIFO, locked and pre-faulted memory), applied in each node's own process.
 
 mod bus_io;
 pub mod graph;
 mod io;
+pub mod realtime;
 mod runtime;
 mod stage;
 pub mod testing;

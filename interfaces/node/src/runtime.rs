@@ -1,9 +1,9 @@
 //! The one loop every stage runs in: join, ports from the graph, restore after a
-//! restart, start, ready, then wait for the trigger, process, acknowledge, forever
+//! restart, start, the node's real-time options (`config/realtime.toml`), ready, then wait for the trigger, process, acknowledge, forever
 //! (until SIGINT/SIGTERM, which ends it as `BusError::StopRequested`).
 
 use crate::graph::{Acknowledges, Graph};
-use crate::{BusIo, RunContext, Stage};
+use crate::{BusIo, RunContext, Stage, realtime};
 use aisle_bus::{Bus, NodeArgs, NodeError, StageTimer, Stamp};
 use aisle_messages::{Message, NodeState, TickDone, TickMode, topics};
 
@@ -41,6 +41,10 @@ pub fn run<S: Stage>(stage: &mut S, args: &NodeArgs) -> Result<(), NodeError> {
         stage.restore(&io, &ctx)?;
     }
     stage.start(&io, &ctx)?;
+    // After `start` (its allocations are then pre-faulted and locked with the rest),
+    // before the first cycle.
+    realtime::apply_for(name, &args.config_dir, &graph, realtime::Forks::Inherit)
+        .map_err(|e| NodeError::setup(name, e))?;
     io.heartbeat(NodeState::Ready, "")?;
     loop {
         let trigger = io.wait_trigger(S::TRIGGER, S::NEWEST_ONLY)?;

@@ -223,6 +223,14 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
     let mode = TickMode::from_u32(info.mode).unwrap_or(TickMode::Lockstep);
     let mut ports = open_ports(&bus)?;
     let mut heartbeat = bus.heartbeat()?;
+    // The node's real-time options (`config/realtime.toml`), before the first tick.
+    aisle_node::realtime::apply_for(
+        "simulator",
+        &args.config_dir,
+        &graph,
+        aisle_node::realtime::Forks::Inherit,
+    )
+    .map_err(|e| NodeError::setup("simulator", e))?;
     let (mut k, mut applied) = (0, Applied::default());
     if args.restarted {
         (k, applied) = resume(&bus, &mut world)?;

@@ -3,7 +3,8 @@
 //! files: [`sensor`] (can the lidar see what the robot can drive into before it can
 //! stop?) and [`placement`] (a start pose inside a body, a start or goal outside the
 //! map, and leg by leg a goal or drop pose that overlaps a known body or that the static
-//! map cannot reach: [`legs`], [`goals`], [`reach`]). `aisle run` goes through the same
+//! map cannot reach: [`legs`], [`goals`], [`reach`]), and [`realtime`] (the real-time
+//! options against the graph and this host's CPUs). `aisle run` goes through the same
 //! path before it launches anything.
 
 pub mod goals;
@@ -12,6 +13,7 @@ pub mod legs;
 mod mission_tests;
 pub mod placement;
 pub mod reach;
+pub mod realtime;
 pub mod sensor;
 #[cfg(test)]
 mod testing;
@@ -86,6 +88,13 @@ pub fn check_dir(dir: &Path) -> Result<Vec<PathBuf>, String> {
         aisle_node::Graph::load(&graph).map_err(|e| e.to_string())?;
         checked.push(graph);
     }
+    // So is realtime.toml (absent: every option off).
+    let realtime_file = aisle_node::realtime::path_in(dir);
+    if realtime_file.exists() {
+        let graph = aisle_node::Graph::load_dir(dir).map_err(|e| e.to_string())?;
+        realtime::check(dir, &graph)?;
+        checked.push(realtime_file);
+    }
     let known: Vec<PathBuf> = checked
         .iter()
         .filter_map(|p| p.file_name().map(PathBuf::from))
@@ -97,7 +106,7 @@ pub fn check_dir(dir: &Path) -> Result<Vec<PathBuf>, String> {
             && !known.iter().any(|k| Some(k.as_os_str()) == p.file_name())
         {
             return Err(format!(
-                "{}: not a file aisle reads (expected warehouse, robot, lidar, mapper, planner, teb, mission, budgets, restart, graph .toml)",
+                "{}: not a file aisle reads (expected warehouse, robot, lidar, mapper, planner, teb, mission, budgets, restart, graph, realtime .toml)",
                 p.display()
             ));
         }

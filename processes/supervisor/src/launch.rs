@@ -88,8 +88,11 @@ impl ProcessGroup {
         if restarted {
             cmd.arg("--restarted");
         }
-        // SAFETY: prctl and getppid are async-signal-safe; nothing else runs between
-        // fork and exec.
+        // The CPUs the supervisor had before its own `cpus` (realtime.toml) narrowed
+        // them: a node's affinity is its own option.
+        let cpus = aisle_node::realtime::inherited_affinity();
+        // SAFETY: prctl, getppid and sched_setaffinity are async-signal-safe; `cpus` is
+        // a copy owned by the closure; nothing else runs between fork and exec.
         unsafe {
             let parent = libc::getpid();
             cmd.pre_exec(move || {
@@ -97,6 +100,9 @@ impl ProcessGroup {
                 libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGTERM);
                 if libc::getppid() != parent {
                     libc::_exit(1);
+                }
+                if let Some(set) = &cpus {
+                    libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), set);
                 }
                 Ok(())
             });

@@ -100,6 +100,14 @@ impl From<anyhow::Error> for RunAborted {
 /// Runs the mission; `Err` only when the group could not be run at all.
 pub fn run(opts: &RunOptions) -> anyhow::Result<RunOutcome> {
     let config = RunConfig::load(opts)?;
+    // The supervisor's own real-time options (`config/realtime.toml`); the nodes it
+    // starts get none of them (they apply their own).
+    aisle_node::realtime::apply_for(
+        "supervisor",
+        &opts.config_dir,
+        &config.graph,
+        aisle_node::realtime::Forks::Reset,
+    )?;
     let base = run_base_dir()?;
     // What a killed run left is removed before this one adds its own.
     crate::clean::sweep_before_run(&base);

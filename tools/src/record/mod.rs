@@ -128,6 +128,14 @@ pub fn run_recorder_with(
     let log_clock = LogClock::of_mode(mode);
     let writer = WriterThread::start(out, options, &names, log_clock)?;
     queue_run_info(&writer.jobs, args, &info, log_clock.name());
+    // The node's real-time options (`config/realtime.toml`), the writer thread included.
+    aisle_node::realtime::apply_for(
+        "recorder",
+        &args.config_dir,
+        &graph,
+        aisle_node::realtime::Forks::Inherit,
+    )
+    .map_err(|e| NodeError::setup("recorder", e))?;
     heartbeat.send(NodeState::Ready, "")?;
 
     // Recording until the end.

@@ -1,0 +1,125 @@
+//! Real-time options the OS refuses: with `config/realtime.toml` asking every node for
+//! SCHED_FIFO priority 80 and locked memory, on a machine that allows neither, the seed
+//! mission still completes on the baseline path, and every process (the five nodes and
+//! the supervisor) says exactly once what it could not apply and why, and nothing about
+//! what it could (a stack pre-fault needs no privilege).
+//!
+//! The refusal is made here whoever runs the test: `prlimit` sets RLIMIT_RTPRIO to 0 and
+//! RLIMIT_MEMLOCK to 64 KiB, and when this process holds CAP_SYS_NICE or CAP_IPC_LOCK
+//! (root ignores both limits with them), `setpriv` drops both from the bounding and
+//! inheritable sets first. Both tools are util-linux (Debian: essential).
+
+mod support;
+
+use std::process::Command;
+use support::*;
+
+const CAP_IPC_LOCK: u32 = 14;
+const CAP_SYS_NICE: u32 = 23;
+
+/// Whether this process's effective capabilities include `cap` (/proc/self/status).
+fn has_capability(cap: u32) -> bool {
+    let status = std::fs::read_to_string("/proc/self/status").unwrap();
+    let eff = status
+        .lines()
+        .find_map(|l| l.strip_prefix("CapEff:"))
+        .expect("CapEff in /proc/self/status");
+    let mask = u64::from_str_radix(eff.trim(), 16).unwrap();
+    mask & (1 << cap) != 0
+}
+
+/// `aisle <args>` under limits (and capabilities) that refuse a real-time priority and
+/// locked memory.
+fn refusing(run_dir: &std::path::Path, args: &[&str]) -> Command {
+    let mut c = if has_capability(CAP_SYS_NICE) || has_capability(CAP_IPC_LOCK) {
+        let mut c = Command::new("setpriv");
+        c.args([
+            "--inh-caps=-sys_nice,-ipc_lock",
+            "--bounding-set=-sys_nice,-ipc_lock",
+            "prlimit",
+        ]);
+        c
+    } else {
+        Command::new("prlimit")
+    };
+    c.args(["--rtprio=0", "--memlock=65536", "--", aisle()])
+        .args(args)
+        .env("AISLE_RUN_DIR", run_dir)
+        .env("AISLE_LOG", "warn")
+        .stdin(std::process::Stdio::null());
+    c
+}
+
+#[test]
+fn refused_options_are_warned_once_per_process_and_the_mission_completes() {
+    let dir = TestDir::new("realtime");
+    let config = dir.path("config");
+    std::fs::create_dir_all(&config).unwrap();
+    for e in std::fs::read_dir(config_dir()).unwrap().flatten() {
+        if e.path().is_file() {
+            std::fs::copy(e.path(), config.join(e.file_name())).unwrap();
+        }
+    }
+    std::fs::write(
+        config.join("realtime.toml"),
+        "[default]\npriority = 80\nlock_memory = true\nprefault_stack_kb = 64\n",
+    )
+    .unwrap();
+    let report = dir.path("report.json");
+    let out = refusing(
+        &dir.run_dir(),
+        &[
+            "run",
+            "--quiet",
+            "--config-dir",
+            config.to_str().unwrap(),
+            "--report",
+            report.to_str().unwrap(),
+        ],
+    )
+    .output()
+    .expect("setpriv / prlimit (util-linux) run aisle");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "exit {:?}: {stderr}", out.status);
+    let r: aisle_supervisor::report::RunReport =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert!(r.success, "{:?}", r.failure);
+    let (digest, poses) = seed_baseline();
+    assert_eq!(r.driven_path.len(), poses);
+    assert_eq!(path_digest(&r.driven_path), digest);
+
+    let warnings: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.contains("real-time options refused"))
+        .collect();
+    let processes = [
+        "simulator",
+        "lidar",
+        "mapper",
+        "global_planner",
+        "teb_controller",
+        "supervisor",
+    ];
+    for p in processes {
+        let mine: Vec<&&str> = warnings
+            .iter()
+            .filter(|l| l.contains(&format!("{p}: real-time options refused")))
+            .collect();
+        assert_eq!(mine.len(), 1, "{p}: {warnings:#?}");
+        let w = mine[0];
+        assert!(
+            w.contains("priority = 80") && w.contains("RLIMIT_RTPRIO"),
+            "{w}"
+        );
+        assert!(
+            w.contains("lock_memory = true") && w.contains("RLIMIT_MEMLOCK"),
+            "{w}"
+        );
+        assert!(
+            !w.contains("prefault_stack_kb"),
+            "applied, not refused: {w}"
+        );
+    }
+    assert_eq!(warnings.len(), processes.len(), "{warnings:#?}");
+    assert!(run_dir_leftovers(&dir.run_dir()).is_empty());
+}
