@@ -126,9 +126,9 @@ pub fn run_recorder_with(
     let names: Vec<&'static str> = services().iter().map(|i| i.service).collect();
     let mode = TickMode::from_u32(info.mode).unwrap_or(TickMode::Lockstep);
     let log_clock = LogClock::of_mode(mode);
-    let writer = WriterThread::start(out, options, &names, log_clock)?;
-    queue_run_info(&writer.jobs, args, &info, log_clock.name());
-    // The node's real-time options (`config/realtime.toml`), the writer thread included.
+    // The node's real-time options (`config/realtime.toml`), before the writer thread
+    // starts: it inherits the CPUs and locked memory, then leaves any real-time
+    // priority for SCHED_IDLE (`write.rs`), so compressing never competes with a stage.
     aisle_node::realtime::apply_for(
         "recorder",
         &args.config_dir,
@@ -136,6 +136,8 @@ pub fn run_recorder_with(
         aisle_node::realtime::Forks::Inherit,
     )
     .map_err(|e| NodeError::setup("recorder", e))?;
+    let writer = WriterThread::start(out, options, &names, log_clock)?;
+    queue_run_info(&writer.jobs, args, &info, log_clock.name());
     heartbeat.send(NodeState::Ready, "")?;
 
     // Recording until the end.
