@@ -362,17 +362,6 @@ fn replay_times(step: &mut RecordedStep, n: usize) -> Vec<f64> {
     times
 }
 
-/// The cost of the same step with the SCP run to convergence (up to 60 subproblems,
-/// stopping only when a subproblem promises less than 1e-7 of the merit).
-fn converged_cost(cfg: &TebConfig, inputs: &aisle_teb_controller::case::StepInputs) -> f64 {
-    let mut c = cfg.clone();
-    c.solver.max_iterations = 60;
-    c.solver.tolerance = 1e-9;
-    c.solver.relative_tolerance = 1e-7;
-    let mut step = RecordedStep::new(c, inputs).expect("a step");
-    step.step().expect("step").cost
-}
-
 /// The mission's worst steps, replayed from the state the mission had, under the
 /// seed's `config/teb.toml`.
 fn mission(c: &mut Criterion) {
@@ -406,7 +395,7 @@ fn mission(c: &mut Criterion) {
                 "differs from the recorded step (an older build's record)"
             }
         );
-        let converged = converged_cost(&cfg, &inputs);
+        let converged = step_cases::converged_cost(&cfg, &inputs).expect("converged step");
         println!(
             "mission {name}: cost {:.4}, converged {:.4} ({:+.2} %)",
             recorded.cost,

@@ -25,8 +25,9 @@ use std::time::Instant;
 
 use aisle_teb_controller::TebConfig;
 use aisle_teb_controller::case::{RecordedStep, reproduces};
+use aisle_tools::latency::nearest_rank;
 use aisle_tools::{RecordWriter, WriterOptions};
-use step_cases::{AlignedStep, StepMessages, steps_in};
+use step_cases::{AlignedStep, StepMessages, converged_cost, steps_in};
 
 struct Args {
     record: PathBuf,
@@ -160,49 +161,41 @@ fn run() -> Result<(), String> {
     Ok(())
 }
 
-/// The cost of the step with its SCP run to convergence (60 subproblems at most,
-/// stopping only when a subproblem promises under 1e-7 of the merit).
-fn converged_cost(cfg: &TebConfig, s: &AlignedStep) -> Result<f64, String> {
-    let mut c = cfg.clone();
-    c.solver.max_iterations = 60;
-    c.solver.tolerance = 1e-9;
-    c.solver.relative_tolerance = 1e-7;
-    let mut step = RecordedStep::new(c, &s.inputs()?)?;
-    Ok(step.step().map_err(|e| e.to_string())?.cost)
-}
-
 fn evaluate(cfg: &TebConfig, steps: &[StepMessages]) -> Result<(), String> {
     let (mut times, mut ratios, mut subproblems) = (Vec::new(), Vec::new(), 0);
     for s in steps {
         let aligned = AlignedStep::of(s);
-        let mut step = RecordedStep::new(cfg.clone(), &aligned.inputs()?)?;
+        let inputs = aligned.inputs()?;
+        let mut step = RecordedStep::new(cfg.clone(), &inputs)?;
         let start = Instant::now();
         let out = step.step().map_err(|e| e.to_string())?;
-        times.push(start.elapsed().as_secs_f64() * 1e3);
+        times.push(start.elapsed().as_nanos() as u64);
         subproblems += out.iterations;
         if out.iterations > 0 {
-            ratios.push(out.cost / converged_cost(cfg, &aligned)?);
+            ratios.push(out.cost / converged_cost(cfg, &inputs)?);
         }
     }
-    let q = |v: &mut Vec<f64>, p: f64| {
-        v.sort_by(f64::total_cmp);
-        v[((v.len() as f64 * p).ceil() as usize).clamp(1, v.len()) - 1]
-    };
+    // The project's one quantile (nearest rank), on ns and on ratios in millionths.
+    times.sort_unstable();
+    let mut ppm: Vec<u64> = ratios.iter().map(|r| (r * 1e6).round() as u64).collect();
+    ppm.sort_unstable();
+    let ms = |q: f64| nearest_rank(&times, q) as f64 * 1e-6;
+    let ratio = |q: f64| nearest_rank(&ppm, q) as f64 * 1e-6;
     println!(
         "{} steps: time p50 {:.2} ms, p99 {:.2} ms, max {:.2} ms; {} subproblems",
         times.len(),
-        q(&mut times, 0.5),
-        q(&mut times, 0.99),
-        q(&mut times, 1.0),
+        ms(0.5),
+        ms(0.99),
+        ms(1.0),
         subproblems
     );
     println!(
         "cost / converged cost over {} optimised steps: p50 {:.4}, p90 {:.4}, max {:.4}, min {:.4}",
-        ratios.len(),
-        q(&mut ratios, 0.5),
-        q(&mut ratios, 0.9),
-        q(&mut ratios, 1.0),
-        q(&mut ratios, 0.0)
+        ppm.len(),
+        ratio(0.5),
+        ratio(0.9),
+        ratio(1.0),
+        ratio(0.0)
     );
     Ok(())
 }

@@ -4,12 +4,15 @@
 //! published). Shared by `examples/export_steps.rs` (which writes the worst steps of a
 //! run to a small record) and `benches/teb_step.rs` (which times them).
 
+use std::mem::offset_of;
 use std::path::Path;
 
 use aisle_messages::{
-    ControllerBand, ControllerGoal, Message, OccupancyGrid, RobotState, Tick, Trajectory, topics,
+    ControllerBand, ControllerGoal, Header, Message, OccupancyGrid, RobotState, Tick, Trajectory,
+    topics,
 };
-use aisle_teb_controller::case::StepInputs;
+use aisle_teb_controller::TebConfig;
+use aisle_teb_controller::case::{RecordedStep, StepInputs};
 use aisle_tools::aligned::AlignedBuf;
 use aisle_tools::{FileMessage, RecordFile};
 
@@ -66,14 +69,36 @@ impl AlignedStep {
     }
 }
 
-fn stamp(m: &FileMessage) -> u64 {
-    // Every message starts with its header; the sim-time stamp is its second field.
-    u64::from_le_bytes(m.data[8..16].try_into().unwrap_or_default())
+fn u64_at(m: &FileMessage, at: usize) -> u64 {
+    m.data
+        .get(at..at + 8)
+        .and_then(|b| b.try_into().ok())
+        .map_or(0, u64::from_le_bytes)
 }
 
+/// The sim-time stamp of any message (every one starts with its header).
+fn stamp(m: &FileMessage) -> u64 {
+    u64_at(m, offset_of!(Header, stamp_ns))
+}
+
+/// The goal id of a `ControllerGoal`, `ControllerBand` or `Trajectory`.
 fn goal_id(m: &FileMessage) -> u64 {
-    // goal_id follows the 48-byte header in ControllerGoal, ControllerBand, Trajectory.
-    u64::from_le_bytes(m.data[48..56].try_into().unwrap_or_default())
+    const AT: usize = offset_of!(ControllerGoal, goal_id);
+    const _: () =
+        assert!(AT == offset_of!(ControllerBand, goal_id) && AT == offset_of!(Trajectory, goal_id));
+    u64_at(m, AT)
+}
+
+/// The cost of the step of `inputs` with its SCP run to convergence (60 subproblems at
+/// most, stopping only when a subproblem promises under 1e-7 of the merit).
+#[allow(dead_code)] // the bench and the example use it; the test that includes this does not
+pub fn converged_cost(cfg: &TebConfig, inputs: &StepInputs) -> Result<f64, String> {
+    let mut c = cfg.clone();
+    c.solver.max_iterations = 60;
+    c.solver.tolerance = 1e-9;
+    c.solver.relative_tolerance = 1e-7;
+    let mut step = RecordedStep::new(c, inputs)?;
+    Ok(step.step().map_err(|e| e.to_string())?.cost)
 }
 
 /// Newest message of `list` stamped at or before `t` (`strict`: before).
