@@ -91,10 +91,15 @@ pub(super) fn drain(
     };
     loop {
         if signals::stop_requested() {
+            // What was published before the stop request is still in the subscribers'
+            // queues (iceoryx2 keeps a departed publisher's undelivered samples): taken
+            // now, a stop that lands mid-pass cannot cut the last tick in half.
+            drain_remaining(sources, jobs, &mut taker, summary)?;
             return Err(BusError::StopRequested.into());
         }
         if std::os::unix::process::parent_id() != parent {
             tracing::warn!("recorder: the parent process exited; finalising");
+            drain_remaining(sources, jobs, &mut taker, summary)?;
             return Ok(());
         }
         while let Ok((i, buf)) = free.try_recv() {
@@ -118,6 +123,22 @@ pub(super) fn drain(
             std::thread::sleep(options.poll_period);
         }
     }
+}
+
+/// Passes over every source until one finds nothing (bounded: a publisher that never
+/// stops cannot hold the recorder open).
+fn drain_remaining(
+    sources: &[(usize, Box<dyn RawSource>)],
+    jobs: &mpsc::Sender<Job>,
+    taker: &mut Taker<'_>,
+    summary: &mut RecordSummary,
+) -> Result<(), NodeError> {
+    for _ in 0..16 {
+        if drain_sources(sources, jobs, taker, summary)? == 0 {
+            break;
+        }
+    }
+    Ok(())
 }
 
 /// Takes every waiting sample of every source; returns how many there were.
