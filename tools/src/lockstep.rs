@@ -128,7 +128,7 @@ fn drain_from(
     writer: NodeKind,
     out: &mut Vec<Vec<u8>>,
 ) -> Result<(), BusError> {
-    let writer = writer as u32;
+    let writer = writer.code();
     while source.receive_raw(&mut |bytes| {
         if u32_at(bytes, SOURCE_AT) == writer {
             out.push(bytes.to_vec());

@@ -78,7 +78,7 @@ impl Run {
         let tick_wall = WALL_START_NS + k * WALL_PERIOD_NS;
         let source = writer_of(service, &*m);
         let h = m.header_mut();
-        h.source = source as u32;
+        h.source = source.code();
         h.seq = self.seqs[slot];
         h.stamp_ns = k * DT_NS;
         h.tick = k;
@@ -94,10 +94,16 @@ impl Run {
 
     fn done(&mut self, node: NodeKind, status: StageStatus, compute_ns: u64, k: u64) {
         let mut d = zeroed_box::<TickDone>();
-        d.node = node as u32;
+        d.node = node.code();
         d.status = status as u32;
         d.compute_ns = compute_ns;
-        self.push(10 + node as usize, s::TICK_DONE, d, k, compute_ns + 10_000);
+        self.push(
+            10 + node.code() as usize,
+            s::TICK_DONE,
+            d,
+            k,
+            compute_ns + 10_000,
+        );
     }
 
     /// Along x in segment 0, then along y.

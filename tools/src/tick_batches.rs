@@ -150,7 +150,7 @@ impl<'a> TickBatches<'a> {
             .opts
             .outputs
             .iter()
-            .any(|(svc, node)| svc == topic && *node as u32 == h.source)
+            .any(|(svc, node)| svc == topic && node.code() == h.source)
         {
             self.batch(h.tick, h.stamp_ns).outputs.push(m);
         }

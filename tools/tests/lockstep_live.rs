@@ -99,7 +99,7 @@ fn stand_in(
             std::thread::sleep(Duration::from_millis(2));
             seen.early |= clouds.receive().unwrap().is_some();
             acks.publish(Stamp::of(&header), |m| {
-                m.node = NodeKind::Mapper as u32;
+                m.node = NodeKind::Mapper.code();
                 m.status = StageStatus::Done as u32;
             })
             .unwrap();

@@ -49,7 +49,7 @@ fn records_published_payloads_byte_for_byte_and_finalises_on_stop() {
     let (outcome, _) = hb
         .wait_for(
             Duration::from_secs(20),
-            |h| h.node == NodeKind::Recorder as u32 && h.state == NodeState::Ready as u32,
+            |h| h.node == NodeKind::Recorder.code() && h.state == NodeState::Ready as u32,
             // A late subscriber gets the announcement (history) only when the publisher
             // updates its connections, as the supervisor does in its loops.
             || {

@@ -163,7 +163,7 @@ impl HeartbeatSender {
         self.last_ns = clock::monotonic_ns();
         let kind = self.kind;
         self.port.publish(Stamp::default(), |m| {
-            m.node = kind as u32;
+            m.node = kind.code();
             m.state = state as u32;
             m.pid = std::process::id();
             m.schema_hash = aisle_messages::schema_hash();

@@ -93,7 +93,7 @@ impl<M: Message> Publisher<M> {
         h.tick = stamp.tick;
         h.tick_wall_ns = stamp.tick_wall_ns;
         h.publish_wall_ns = clock::monotonic_ns();
-        h.source = self.source as u32;
+        h.source = self.source.code();
         sample
             .send()
             .map_err(|e| BusError::service(self.service, e))?;

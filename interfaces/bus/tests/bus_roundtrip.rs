@@ -59,7 +59,7 @@ fn a_large_message_arrives_intact_and_the_instance_leaves_nothing() {
             (m.rows, m.cols, m.header.seq, m.header.stamp_ns),
             (31, 1201, 1, 100)
         );
-        assert_eq!(m.header.source, NodeKind::Supervisor as u32);
+        assert_eq!(m.header.source, NodeKind::Supervisor.code());
         assert_eq!(m.points[37_230], [1.0, 2.0, 3.0]);
         assert!(m.points[0][0].is_nan());
         assert_eq!(m.points[5], [0.0; 3], "the loan is zero-filled");

@@ -2,8 +2,9 @@
 
 use iceoryx2::prelude::ZeroCopySend;
 
+use crate::NodeKind;
 use crate::common::{
-    Header, NodeKind, PathPoseMsg, Pose2Msg, Pose3Msg, RectMsg, TimedCommandMsg, TimedPoseMsg,
+    Header, PathPoseMsg, Pose2Msg, Pose3Msg, RectMsg, TimedCommandMsg, TimedPoseMsg,
 };
 use crate::{FieldLayout, message};
 
@@ -426,21 +427,39 @@ message!(
     /// Who is in the group, from the supervisor (history 1): a lockstep tick waits only
     /// for the acknowledgements of members. Published before the first tick and again
     /// when a member leaves for good (a recorder that died or failed).
-    GroupMembers = "aisle.GroupMembers.v1" size 56 {
+    GroupMembers = "aisle.GroupMembers.v2" size 184 {
         header: Header,
-        /// Bit `1 << (NodeKind as u32)` set: that node is in the group.
-        members: u64,
+        /// How many entries of `nodes` are used.
+        count: u32,
+        _pad: u32,
+        /// The members' node codes (`NodeKind::code`).
+        nodes: [u32; MAX_GROUP_MEMBERS],
     }
 );
 
+/// Most nodes a group can have (built-in and external).
+pub const MAX_GROUP_MEMBERS: usize = 32;
+
 impl GroupMembers {
-    /// The bit of `kind` in `members`: the one definition of the layout.
-    pub fn bit(kind: NodeKind) -> u64 {
-        1 << kind as u32
+    /// Sets the members; `Err` with the count when there are more than fit.
+    pub fn set(&mut self, members: impl IntoIterator<Item = NodeKind>) -> Result<(), usize> {
+        let members: Vec<u32> = members.into_iter().map(NodeKind::code).collect();
+        if members.len() > MAX_GROUP_MEMBERS {
+            return Err(members.len());
+        }
+        self.nodes = [0; MAX_GROUP_MEMBERS];
+        self.nodes[..members.len()].copy_from_slice(&members);
+        self.count = members.len() as u32;
+        Ok(())
+    }
+
+    /// The members' codes.
+    pub fn codes(&self) -> &[u32] {
+        &self.nodes[..(self.count as usize).min(MAX_GROUP_MEMBERS)]
     }
 
     pub fn contains(&self, kind: NodeKind) -> bool {
-        self.members & Self::bit(kind) != 0
+        self.codes().contains(&kind.code())
     }
 }
 

@@ -62,62 +62,6 @@ field_ok!(u8, i8, u16, i16, u32, i32, u64, i64, f32, f64);
 impl<T: FieldOk, const N: usize> FieldOk for [T; N] {}
 impl<T: crate::ZeroedValid> FieldOk for T {}
 
-/// Which process wrote a message.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-#[repr(u32)]
-pub enum NodeKind {
-    Supervisor = 0,
-    Simulator = 1,
-    Lidar = 2,
-    Mapper = 3,
-    GlobalPlanner = 4,
-    TebController = 5,
-    Recorder = 6,
-    Replay = 7,
-}
-
-impl NodeKind {
-    pub const ALL: [NodeKind; 8] = [
-        NodeKind::Supervisor,
-        NodeKind::Simulator,
-        NodeKind::Lidar,
-        NodeKind::Mapper,
-        NodeKind::GlobalPlanner,
-        NodeKind::TebController,
-        NodeKind::Recorder,
-        NodeKind::Replay,
-    ];
-    /// The five processes the supervisor launches, in start order.
-    pub const LAUNCHED: [NodeKind; 5] = [
-        NodeKind::Simulator,
-        NodeKind::Lidar,
-        NodeKind::Mapper,
-        NodeKind::GlobalPlanner,
-        NodeKind::TebController,
-    ];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            NodeKind::Supervisor => "supervisor",
-            NodeKind::Simulator => "simulator",
-            NodeKind::Lidar => "lidar",
-            NodeKind::Mapper => "mapper",
-            NodeKind::GlobalPlanner => "global_planner",
-            NodeKind::TebController => "teb_controller",
-            NodeKind::Recorder => "recorder",
-            NodeKind::Replay => "replay",
-        }
-    }
-
-    pub fn from_name(name: &str) -> Option<NodeKind> {
-        Self::ALL.into_iter().find(|k| k.name() == name)
-    }
-
-    pub fn from_u32(v: u32) -> Option<NodeKind> {
-        Self::ALL.into_iter().find(|k| *k as u32 == v)
-    }
-}
-
 layout_struct!(
     /// Common to every message. `stamp_ns` is simulated time; `tick_wall_ns` is the
     /// monotonic wall clock (CLOCK_MONOTONIC, comparable across processes) at which the

@@ -15,6 +15,7 @@ mod catalog;
 mod common;
 mod grid;
 mod layout;
+mod node_kind;
 pub mod topics;
 
 pub use catalog::*;
@@ -22,5 +23,9 @@ pub use common::*;
 pub use grid::GridCopy;
 pub use layout::{
     FieldLayout, Message, ZeroedValid, all_layouts, schema_hash, schema_hash_hex, zeroed_box,
+};
+pub use node_kind::{
+    EXTERNAL_CODE_BIT, ExternalNode, MAX_EXTERNAL_NAME, NodeKind, check_external_name,
+    external_code,
 };
 pub use topics::{Qos, Topic, TopicInfo, TopicVisitor};

@@ -114,9 +114,10 @@ const COMMANDS: Qos = Qos {
     history: 16,
     buffer: 16,
 };
-/// Every process publishes these; nobody needs their past.
+/// Every process publishes these (external nodes too, up to `MAX_GROUP_MEMBERS`, and
+/// a restarted one beside its dead predecessor); nobody needs their past.
 const PROTOCOL: Qos = Qos {
-    max_publishers: 10,
+    max_publishers: 40,
     max_subscribers: 4,
     history: 0,
     buffer: 16,

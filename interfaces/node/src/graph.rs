@@ -53,6 +53,11 @@ pub struct NodeDecl {
     pub acknowledges: Acknowledges,
     #[serde(default)]
     pub after: Vec<String>,
+    /// An external node's program and arguments (a built-in node has none): the
+    /// supervisor starts it in the directory of the graph file, with the instance in its
+    /// environment (see [`crate::external`]).
+    #[serde(default)]
+    pub command: Option<Vec<String>>,
 }
 
 fn yes() -> bool {
@@ -62,7 +67,11 @@ fn yes() -> bool {
 impl NodeDecl {
     /// The node kind this declaration names.
     pub fn kind(&self) -> NodeKind {
-        NodeKind::from_name(&self.name).expect("checked when the graph was loaded")
+        if self.command.is_some() {
+            NodeKind::external(&self.name)
+        } else {
+            NodeKind::from_name(&self.name).expect("checked when the graph was loaded")
+        }
     }
 
     fn lists(list: &[String], topic: &str) -> bool {
@@ -121,24 +130,23 @@ impl Graph {
         graph
             .check()
             .map_err(|(key, reason)| ConfigError::invalid(path, text, &key, reason))?;
+        // Known from now on by name and code (a code read from a message can be named).
+        graph.external().for_each(|n| {
+            n.kind();
+        });
         Ok(graph)
     }
 
     /// Every name resolves, no node is declared twice, `after` names acknowledging nodes.
     fn check(&self) -> Result<(), (String, String)> {
-        let known: Vec<&str> = NodeKind::ALL.iter().map(|k| k.name()).collect();
         for (i, n) in self.nodes.iter().enumerate() {
             let key = |field: &str| format!("node[{i}].{field}");
-            if NodeKind::from_name(&n.name).is_none() {
-                return Err((
-                    key("name"),
-                    format!(
-                        "no node called `{}`; nodes are {}",
-                        n.name,
-                        known.join(", ")
-                    ),
-                ));
-            }
+            check_name(n).map_err(|reason| {
+                (
+                    key(n.command.as_ref().map_or("name", |_| "command")),
+                    reason,
+                )
+            })?;
             if self.nodes[..i].iter().any(|m| m.name == n.name) {
                 return Err((key("name"), format!("`{}` is declared twice", n.name)));
             }
@@ -154,6 +162,17 @@ impl Graph {
                         format!("no topic called `{t}`; topics are {}", names.join(", ")),
                     ));
                 }
+            }
+            if let Some(m) = self.nodes[..i].iter().find(|m| {
+                m.command.is_some() && n.command.is_some() && m.kind().code() == n.kind().code()
+            }) {
+                return Err((
+                    key("name"),
+                    format!(
+                        "`{}` and `{}` have the same node code; rename one",
+                        m.name, n.name
+                    ),
+                ));
             }
             for a in &n.after {
                 let Some(m) = self.nodes.iter().find(|m| &m.name == a) else {
@@ -184,6 +203,11 @@ impl Graph {
 
     pub fn node(&self, kind: NodeKind) -> Option<&NodeDecl> {
         self.nodes.iter().find(|n| n.name == kind.name())
+    }
+
+    /// The external nodes, in declaration order.
+    pub fn external(&self) -> impl Iterator<Item = &NodeDecl> + '_ {
+        self.nodes.iter().filter(|n| n.command.is_some())
     }
 
     /// The nodes the supervisor starts, in declaration order.
@@ -223,6 +247,32 @@ impl Graph {
             .filter(|n| n.acknowledges.tick(stages))
             .map(NodeDecl::kind)
             .collect()
+    }
+}
+
+/// A built-in name without `command`, or an external one (a well-formed name that is
+/// not a built-in's) with a non-empty `command`.
+fn check_name(n: &NodeDecl) -> Result<(), String> {
+    let built_in = NodeKind::BUILT_IN.iter().any(|k| k.name() == n.name);
+    match (&n.command, built_in) {
+        (None, true) => Ok(()),
+        (Some(_), true) => Err(format!(
+            "`{}` is a built-in node: it has no `command` (the supervisor starts it)",
+            n.name
+        )),
+        (Some(c), false) if c.first().is_none_or(|p| p.is_empty()) => Err(format!(
+            "the command of `{}` is empty: give the program and its arguments",
+            n.name
+        )),
+        (Some(_), false) => aisle_messages::check_external_name(&n.name),
+        (None, false) => {
+            let known: Vec<&str> = NodeKind::BUILT_IN.iter().map(|k| k.name()).collect();
+            Err(format!(
+                "no node called `{}`; built-in nodes are {}; a node of your own needs a `command`",
+                n.name,
+                known.join(", ")
+            ))
+        }
     }
 }
 
@@ -287,6 +337,36 @@ mod tests {
         assert!(e.contains("no node called `lidarr`"), "{e}");
         let bad = SHIPPED.replace("acknowledges = \"none\"", "acknowledges = \"sometimes\"");
         assert!(Graph::parse(Path::new("g.toml"), &bad).is_err());
+    }
+
+    #[test]
+    fn external_nodes_need_a_command_and_a_name_of_their_own() {
+        let ext = |name: &str, command: &str| {
+            format!(
+                "{SHIPPED}\n[[node]]\nname = \"{name}\"\n{command}\npublishes = []\nsubscribes = [\"aisle/tick\"]\nacknowledges = \"every_tick\"\nafter = [\"lidar\"]\n"
+            )
+        };
+        let g = Graph::parse(Path::new("g.toml"), &ext("my_monitor", "command = [\"m\"]")).unwrap();
+        let k = NodeKind::from_name("my_monitor").expect("known once the graph is loaded");
+        assert!(k.is_external());
+        assert_eq!(g.launched().last(), Some(k));
+        assert!(g.acknowledgers(0, |_| true).contains(&k));
+        assert_eq!(g.waits_of(k, 0), [NodeKind::Lidar]);
+        for (name, command, says) in [
+            ("my_monitor", "", "a node of your own needs a `command`"),
+            (
+                "lidar_two",
+                "command = []",
+                "the command of `lidar_two` is empty",
+            ),
+            ("Monitor", "command = [\"m\"]", "is not a node name"),
+            ("lidar", "command = [\"m\"]", "is a built-in node"),
+        ] {
+            let e = Graph::parse(Path::new("g.toml"), &ext(name, command))
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(says) && e.contains("node[7]"), "{e}");
+        }
     }
 
     #[test]

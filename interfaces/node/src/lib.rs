@@ -9,10 +9,13 @@
 //!   waits, times and acknowledges.
 //! - [`Io`]: what a stage reads and writes, on the bus ([`BusIo`]) or in memory
 //!   ([`testing::MemIo`]), so a stage is unit-tested without launching anything.
+//! - [`external`]: what the supervisor gives a node of the user's own, and [`external::main`],
+//!   the whole `main` of one written in Rust.
 //! - [`realtime`]: the real-time execution options of `config/realtime.toml` (affinity,
 //!   SCHED_FIFO, locked and pre-faulted memory), applied in each node's own process.
 
 mod bus_io;
+pub mod external;
 pub mod graph;
 mod io;
 pub mod realtime;

@@ -54,7 +54,7 @@ pub fn run<S: Stage>(stage: &mut S, args: &NodeArgs) -> Result<(), NodeError> {
         if let Some(acks) = acks.as_mut() {
             let kind = S::KIND;
             acks.publish(Stamp::of(Message::header(&*trigger)), |m: &mut TickDone| {
-                m.node = kind as u32;
+                m.node = kind.code();
                 m.status = cycle.status as u32;
                 m.compute_ns = compute_ns;
                 m.cpu_ns = timer.cpu_ns();

@@ -27,7 +27,7 @@ impl Awaited {
     pub fn new() -> Self {
         Awaited {
             tick: 0,
-            nodes: Vec::with_capacity(NodeKind::ALL.len()),
+            nodes: Vec::with_capacity(NodeKind::BUILT_IN.len()),
         }
     }
 
@@ -44,14 +44,14 @@ impl Awaited {
 
     /// Whether `done` is one of the awaited acknowledgements.
     pub fn matches(&self, done: &TickDone) -> bool {
-        done.header.tick == self.tick && self.nodes.iter().any(|n| *n as u32 == done.node)
+        done.header.tick == self.tick && self.nodes.iter().any(|n| n.code() == done.node)
     }
 
     /// Counts `done` if it is awaited; returns whether it was.
     pub fn take(&mut self, done: &TickDone) -> bool {
         let hit = self.matches(done);
         if hit {
-            self.nodes.retain(|n| *n as u32 != done.node);
+            self.nodes.retain(|n| n.code() != done.node);
         }
         hit
     }
@@ -116,7 +116,7 @@ mod tests {
     fn done(tick: u64, node: NodeKind) -> TickDone {
         let mut d = *aisle_messages::zeroed_box::<TickDone>();
         d.header.tick = tick;
-        d.node = node as u32;
+        d.node = node.code();
         d
     }
 

@@ -157,8 +157,13 @@ fn apply_inputs(
     world: &mut World,
     applied: &mut Applied,
     life: TrajectoryLife,
+    tick: u64,
 ) -> Result<(), NodeError> {
     while let Some(cmd) = ports.commands.receive()? {
+        if cmd.header.source != NodeKind::Supervisor.code() {
+            apply_external_stop(world, applied, &cmd, tick);
+            continue;
+        }
         // History replays commands to a restarted simulator: apply each once.
         if cmd.command_id > applied.command_id {
             applied.command_id = cmd.command_id;
@@ -284,16 +289,39 @@ pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
             }
         }
         let timer = StageTimer::start();
-        apply_inputs(&ports, &mut world, &mut applied, life)?;
+        apply_inputs(&ports, &mut world, &mut applied, life, k)?;
         step(&mut world, dt_ns);
         let compute_ns = timer.elapsed_ns();
         ports.done_out.publish(stamp, |d| {
-            d.node = NodeKind::Simulator as u32;
+            d.node = NodeKind::Simulator.code();
             d.status = StageStatus::Done as u32;
             d.compute_ns = compute_ns;
             d.cpu_ns = timer.cpu_ns();
         })?;
         k += 1;
+    }
+}
+
+/// A command from another node than the supervisor (a safety monitor of the user's):
+/// it may stop the robot, nothing else, and only while it is fresh (made for this tick or
+/// the one before), so one replayed from history after a restart stops nothing. Its ids
+/// are its own: the supervisor's sequence is left alone.
+fn apply_external_stop(world: &mut World, applied: &mut Applied, cmd: &SimCommand, tick: u64) {
+    let source = NodeKind::from_u32(cmd.header.source).map_or("an unknown node", NodeKind::name);
+    if cmd.kind != SimCommandKind::Stop as u32 {
+        tracing::warn!(
+            "simulator: `{source}` sent command kind {}; only the supervisor may, others may only stop",
+            cmd.kind
+        );
+        return;
+    }
+    if cmd.header.tick + 1 >= tick {
+        // u64::MAX means no stop yet (see `Applied`).
+        applied.stop_tick = match applied.stop_tick {
+            u64::MAX => cmd.header.tick,
+            t => t.max(cmd.header.tick),
+        };
+        world.stop();
     }
 }
 
@@ -358,7 +386,7 @@ fn publish_state(ports: &mut Ports, world: &World, stamp: Stamp) -> Result<(), N
 /// first one, the launch's (the recorder only when `--record` attached one).
 #[derive(Debug, Clone, Copy)]
 struct Members {
-    newest: Option<u64>,
+    newest: Option<GroupMembers>,
     recorded: bool,
 }
 
@@ -368,20 +396,19 @@ impl Members {
         let Some(g) = group.latest()? else {
             return Ok(false);
         };
-        let changed = self.newest != Some(g.members);
+        let changed = self.newest.is_none_or(|n| n.codes() != g.codes());
         if changed {
-            let before = *self;
-            self.newest = Some(g.members);
+            let before = self.newest.replace(*g);
             // The first announcement is the launch's own; only a later one can tell of
             // a member that left.
-            let announced_before = before.newest.is_some();
-            for left in NodeKind::ALL
-                .into_iter()
-                .filter(|k| announced_before && before.contains(*k) && !self.contains(*k))
+            for left in before
+                .iter()
+                .flat_map(|b| b.codes())
+                .filter(|c| !g.codes().contains(c))
             {
+                let name = NodeKind::from_u32(*left).map_or("an unknown node", NodeKind::name);
                 tracing::warn!(
-                    "simulator: `{}` left the group; its acknowledgements are no longer awaited",
-                    left.name()
+                    "simulator: `{name}` (code {left:#x}) left the group; its acknowledgements are no longer awaited"
                 );
             }
         }
@@ -389,8 +416,8 @@ impl Members {
     }
 
     fn contains(&self, kind: NodeKind) -> bool {
-        match self.newest {
-            Some(m) => m & GroupMembers::bit(kind) != 0,
+        match &self.newest {
+            Some(m) => m.contains(kind),
             None => kind != NodeKind::Recorder || self.recorded,
         }
     }

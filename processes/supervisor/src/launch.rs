@@ -47,6 +47,57 @@ pub struct LaunchSpec {
     pub config_dir: PathBuf,
     /// Extra arguments per node (clock, start pose, the lidar switched off, faults).
     pub extra: Box<dyn Fn(NodeKind) -> Vec<String>>,
+    /// The external nodes' commands (program and arguments), from the graph.
+    pub external: HashMap<NodeKind, Vec<String>>,
+    /// The clock, for external nodes' environment: simulated time per tick, and every
+    /// how many ticks the controller acts.
+    pub dt_ns: u64,
+    pub controller_every: u32,
+}
+
+impl LaunchSpec {
+    /// The command that starts `kind`: this binary as `aisle node <name>`, or an
+    /// external node's own program, run in the config directory (so the graph's
+    /// relative paths are relative to the graph file) with the instance in its
+    /// environment.
+    fn command(&self, kind: NodeKind, restarted: bool) -> Command {
+        if let Some(argv) = self.external.get(&kind) {
+            // A path (not a name looked up on PATH) is relative to the graph's directory.
+            let program = std::path::Path::new(&argv[0]);
+            let mut cmd = if argv[0].contains('/') && program.is_relative() {
+                Command::new(self.config_dir.join(program))
+            } else {
+                Command::new(program)
+            };
+            let env = aisle_node::external::Env {
+                prefix: self.instance.prefix.clone(),
+                root: self.instance.root.clone(),
+                config_dir: self.config_dir.clone(),
+                node: kind.name().to_string(),
+                restarted,
+                dt_ns: self.dt_ns,
+                controller_every: self.controller_every,
+            };
+            cmd.args(&argv[1..])
+                .current_dir(&self.config_dir)
+                .envs(env.vars());
+            return cmd;
+        }
+        let mut cmd = Command::new(&self.exe);
+        cmd.arg("node")
+            .arg(kind.name())
+            .arg("--prefix")
+            .arg(&self.instance.prefix)
+            .arg("--root")
+            .arg(&self.instance.root)
+            .arg("--config-dir")
+            .arg(&self.config_dir)
+            .args((self.extra)(kind));
+        if restarted {
+            cmd.arg("--restarted");
+        }
+        cmd
+    }
 }
 
 /// The launched nodes. Dropping the group stops it.
@@ -69,25 +120,12 @@ impl ProcessGroup {
     /// Starts one node; `restarted` tells it to resume from the state its predecessor
     /// published. On failure the caller stops the group.
     pub fn spawn(&mut self, kind: NodeKind, restarted: bool) -> Result<(), String> {
-        let spec = &self.spec;
-        let mut cmd = Command::new(&spec.exe);
-        cmd.arg("node")
-            .arg(kind.name())
-            .arg("--prefix")
-            .arg(&spec.instance.prefix)
-            .arg("--root")
-            .arg(&spec.instance.root)
-            .arg("--config-dir")
-            .arg(&spec.config_dir)
-            .args((spec.extra)(kind))
-            .stdin(Stdio::null())
+        let mut cmd = self.spec.command(kind, restarted);
+        cmd.stdin(Stdio::null())
             .stderr(Stdio::piped())
             // Its own process group: a terminal's Ctrl-C reaches the supervisor, which
             // stops the children in order.
             .process_group(0);
-        if restarted {
-            cmd.arg("--restarted");
-        }
         // The CPUs the supervisor had before its own `cpus` (realtime.toml) narrowed
         // them: a node's affinity is its own option.
         let cpus = aisle_node::realtime::inherited_affinity();

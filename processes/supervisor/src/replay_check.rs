@@ -210,6 +210,10 @@ pub fn replay_into_fresh_group(
                     format!("--start={start}"),
                 ]
             }),
+            // Only the mapper and the controller are checked: no external node runs.
+            external: Default::default(),
+            dt_ns: 0,
+            controller_every: 1,
         };
         let mut group = ProcessGroup::new(spec);
         for &kind in nodes {

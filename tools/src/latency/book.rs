@@ -200,7 +200,7 @@ mod tests {
     fn done(node: NodeKind, tick: u64, status: StageStatus, ns: u64) -> TickDone {
         let mut d = *zeroed_box::<TickDone>();
         d.header.tick = tick;
-        d.node = node as u32;
+        d.node = node.code();
         d.status = status as u32;
         d.compute_ns = ns;
         d

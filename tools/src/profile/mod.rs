@@ -109,7 +109,7 @@ impl Collected {
             s::TICK_DONE => {
                 if let Some(d) = self.buf.view::<TickDone>() {
                     self.book.record_done(d);
-                    if d.node == NodeKind::Supervisor as u32 && d.status == StageStatus::Done as u32
+                    if d.node == NodeKind::Supervisor.code() && d.status == StageStatus::Done as u32
                     {
                         let t = d.header.tick;
                         self.last_acted = Some(self.last_acted.map_or(t, |l| l.max(t)));

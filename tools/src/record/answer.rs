@@ -1,11 +1,13 @@
 //! When the recorder acknowledges a tick in lockstep: once the nodes its graph entry
-//! lists in `after` have.
+//! lists in `after` have, and every external node that acknowledges every tick (so what
+//! a user's node published for tick k is in the record of k, whatever the timing).
 //!
 //! Knows the graph and acknowledgement codes; not the bus (the drain reads the
 //! acknowledgements and publishes the recorder's own).
 
 use aisle_messages::NodeKind;
 use aisle_node::Graph;
+use aisle_node::graph::Acknowledges;
 use std::collections::BTreeMap;
 
 /// When the recorder acknowledges tick t: once every node its graph entry lists in
@@ -19,13 +21,22 @@ pub(super) struct AnswerRule {
 
 impl AnswerRule {
     pub(super) fn of(graph: &Graph) -> AnswerRule {
-        let after = graph
+        let mut after: Vec<u32> = graph
             .node(NodeKind::Recorder)
             .map(|d| d.after.iter().filter_map(|a| NodeKind::from_name(a)))
             .into_iter()
             .flatten()
-            .map(|k| k as u32)
+            .map(NodeKind::code)
             .collect();
+        for n in graph
+            .external()
+            .filter(|n| n.acknowledges == Acknowledges::EveryTick)
+        {
+            let code = n.kind().code();
+            if !after.contains(&code) {
+                after.push(code);
+            }
+        }
         AnswerRule {
             after,
             partial: BTreeMap::new(),

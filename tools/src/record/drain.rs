@@ -183,7 +183,7 @@ fn acknowledge(acks: &mut Publisher<TickDone>, t: u64) -> Result<(), BusError> {
             ..Stamp::default()
         },
         |m| {
-            m.node = NodeKind::Recorder as u32;
+            m.node = NodeKind::Recorder.code();
             m.status = StageStatus::Done as u32;
         },
     )?;
@@ -200,7 +200,7 @@ impl Taker<'_> {
         bytes: &[u8],
         summary: &mut RecordSummary,
     ) -> Option<Job> {
-        if u32_at(bytes, SOURCE_AT) != NodeKind::Recorder as u32 {
+        if u32_at(bytes, SOURCE_AT) != NodeKind::Recorder.code() {
             self.last_traffic = Instant::now();
         }
         if Some(i) == self.tick_done {

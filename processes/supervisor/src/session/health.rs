@@ -196,10 +196,13 @@ impl NodeHealth {
     /// clock mode's timeout, one still starting its start timeout.
     fn kill_silent(&mut self) {
         let now = Instant::now();
-        for kind in NodeKind::LAUNCHED
-            .into_iter()
-            .filter(|k| self.expected.contains(k))
-        {
+        let watched: Vec<NodeKind> = self
+            .expected
+            .iter()
+            .copied()
+            .filter(|k| NodeKind::LAUNCHED.contains(k) || k.is_external())
+            .collect();
+        for kind in watched {
             let policy = self.restart.policy(kind);
             let timeout_s = match (self.ready.contains(&kind), self.mode) {
                 (false, _) => policy.start_timeout_s,
@@ -226,14 +229,23 @@ impl NodeHealth {
 
     /// Announces who is in the group: the supervisor and the expected nodes.
     pub fn publish_members(&mut self) -> Result<(), RunAborted> {
-        let members = self
+        let members: Vec<NodeKind> = self
             .expected
             .iter()
-            .chain([NodeKind::Supervisor].iter())
-            .fold(0, |m, k| m | GroupMembers::bit(*k));
-        self.members
-            .publish(aisle_bus::Stamp::default(), |m| m.members = members)?;
-        Ok(())
+            .copied()
+            .chain([NodeKind::Supervisor])
+            .collect();
+        let mut too_many = None;
+        self.members.publish(aisle_bus::Stamp::default(), |m| {
+            too_many = m.set(members.iter().copied()).err();
+        })?;
+        match too_many {
+            None => Ok(()),
+            Some(n) => Err(RunAborted::Error(anyhow!(
+                "the group has {n} nodes; at most {} fit in `GroupMembers`",
+                aisle_messages::MAX_GROUP_MEMBERS
+            ))),
+        }
     }
 
     /// Connects the supervisor's state publishers to nodes that (re)joined.

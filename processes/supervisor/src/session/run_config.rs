@@ -69,7 +69,7 @@ impl RunConfig {
         let kills = opts
             .kill
             .iter()
-            .map(|k| parse_kill(k))
+            .map(|k| parse_kill(k, &graph))
             .collect::<anyhow::Result<Vec<_>>>()?;
         if let Some(n) = &opts.crash_on_start
             && NodeKind::from_name(n).is_none_or(|k| !NodeKind::LAUNCHED.contains(&k))
@@ -89,14 +89,15 @@ impl RunConfig {
     }
 }
 
-/// `NODE@TICK` of `--kill`.
-fn parse_kill(spec: &str) -> anyhow::Result<(NodeKind, u64)> {
+/// `NODE@TICK` of `--kill`: a launched built-in node or an external one of the graph.
+fn parse_kill(spec: &str, graph: &Graph) -> anyhow::Result<(NodeKind, u64)> {
     let (name, tick) = spec
         .split_once('@')
         .ok_or_else(|| anyhow!("--kill {spec}: expected NODE@TICK"))?;
     let kind = NodeKind::from_name(name)
         .filter(|k| NodeKind::LAUNCHED.contains(k))
-        .ok_or_else(|| anyhow!("--kill {spec}: no node `{name}`"))?;
+        .or_else(|| graph.external().find(|n| n.name == name).map(|n| n.kind()))
+        .ok_or_else(|| anyhow!("--kill {spec}: no node `{name}` to kill"))?;
     let tick = tick
         .parse()
         .map_err(|_| anyhow!("--kill {spec}: `{tick}` is not a tick number"))?;

@@ -200,6 +200,13 @@ fn launch_group(
         instance: instance.clone(),
         config_dir,
         extra: Box::new(extra),
+        external: config
+            .graph
+            .external()
+            .filter_map(|n| Some((n.kind(), n.command.clone()?)))
+            .collect(),
+        dt_ns,
+        controller_every: every,
     };
     let mut group = ProcessGroup::new(spec);
     for kind in expected.iter().copied() {

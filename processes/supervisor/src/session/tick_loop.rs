@@ -135,7 +135,7 @@ impl Session {
     /// `compute`: wall and CPU time of the supervisor's work on it.
     fn acknowledge(&mut self, tick: &Tick, compute: Option<(u64, u64)>) -> Result<(), RunAborted> {
         self.ports.tick_done.publish(Stamp::of(&tick.header), |m| {
-            m.node = NodeKind::Supervisor as u32;
+            m.node = NodeKind::Supervisor.code();
             m.status = StageStatus::Done as u32;
             if let Some((wall, cpu)) = compute {
                 m.compute_ns = wall;
@@ -210,7 +210,7 @@ impl Session {
 /// Another stage's acknowledgement (the supervisor's own compute time is recorded
 /// where it is measured).
 fn record_done(book: &mut SampleBook, d: &TickDone) {
-    if d.node != NodeKind::Supervisor as u32 {
+    if d.node != NodeKind::Supervisor.code() {
         book.record_done(d);
     }
 }

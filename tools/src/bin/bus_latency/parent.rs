@@ -180,7 +180,7 @@ fn wait_ready(
         info.update_connections()?;
         let (outcome, _) = heartbeats.wait_for(
             Duration::from_millis(20),
-            |h| h.node == NodeKind::Replay as u32 && h.state == NodeState::Ready as u32,
+            |h| h.node == NodeKind::Replay.code() && h.state == NodeState::Ready as u32,
             || {},
         )?;
         if outcome == WaitOutcome::Matched {
@@ -235,7 +235,7 @@ impl Sender {
             }
             Sender::Small(p) => {
                 p.publish(stamp, |m| {
-                    m.node = NodeKind::Supervisor as u32;
+                    m.node = NodeKind::Supervisor.code();
                     m.compute_ns = i;
                 })?;
             }

@@ -1,0 +1,153 @@
+//! The monitor as a stage of the group: triggered by each point cloud, it judges the
+//! scan against the footprint (the carrying one while a rack is on the robot) and, when
+//! the robot would not stop in time, publishes a `SimCommand` Stop stamped with the
+//! scan's tick. The simulator then drives no trajectory of that tick or before. Muted
+//! while the controller drives a straight docking move (`GoalMode::Straight`).
+
+use crate::{Corridor, MonitorConfig, StopRule};
+use aisle_bus::{NodeError, Stamp};
+use aisle_messages::{
+    ExternalNode, GoalMode, NodeKind, PointCloud, SimCommand, SimCommandKind, Topic, topics,
+};
+use aisle_node::{Cycle, Io, RunContext, Stage};
+use aisle_robot::RobotConfig;
+use std::path::Path;
+
+/// The node's name in `graph.toml`.
+pub const NAME: &str = "safety_monitor";
+
+/// The monitor and what it needs to know of the robot.
+#[derive(Debug, Clone)]
+pub struct MonitorStage {
+    rule: StopRule,
+    alone: Corridor,
+    carrying: Corridor,
+    /// The controller drives a straight docking or undocking move (between a rack's
+    /// legs, slowly, swept against the map by the controller itself): the monitor's
+    /// field is muted, as a safety scanner's is at a docking station.
+    docking: bool,
+    /// The newest velocity the simulator applied (linear, angular).
+    twist: Option<[f64; 2]>,
+    /// The monitor's own command ids (the simulator keeps the supervisor's apart).
+    next_id: u64,
+    /// Stops asked so far.
+    pub stops: u64,
+}
+
+impl MonitorStage {
+    /// From `robot.toml` and the optional `safety_monitor.toml` of `config_dir`.
+    pub fn load(config_dir: &Path) -> Result<MonitorStage, aisle_config::ConfigError> {
+        let robot: RobotConfig = aisle_config::load(&config_dir.join("robot.toml"))?;
+        let path = config_dir.join("safety_monitor.toml");
+        let config = if path.exists() {
+            aisle_config::load(&path)?
+        } else {
+            MonitorConfig::default()
+        };
+        Ok(Self::new(&robot, config))
+    }
+
+    pub fn new(robot: &RobotConfig, config: MonitorConfig) -> MonitorStage {
+        let corridor = |length: f64, width: f64| Corridor {
+            half_length: 0.5 * length,
+            half_width: 0.5 * width,
+            lateral_margin: config.lateral_margin,
+            min_height: config.min_height,
+            max_height: robot.body.height + config.max_height_above_body,
+        };
+        let f = &robot.footprint;
+        MonitorStage {
+            rule: StopRule { config },
+            alone: corridor(f.alone.length, f.alone.width),
+            carrying: corridor(f.carrying.length, f.carrying.width),
+            docking: false,
+            twist: None,
+            next_id: 1,
+            stops: 0,
+        }
+    }
+}
+
+/// The cloud's returns in the robot's base frame (x forward, y left, z up from the
+/// floor), from the sensor pose and robot pose the lidar stamped on it.
+pub fn base_frame_points(cloud: &PointCloud) -> impl Iterator<Item = [f64; 3]> + '_ {
+    let [roll, pitch, yaw] = cloud.sensor_pose.rpy;
+    let (sr, cr) = roll.sin_cos();
+    let (sp, cp) = pitch.sin_cos();
+    let (sy, cy) = yaw.sin_cos();
+    // R = Rz(yaw) Ry(pitch) Rx(roll), as `Pose3Msg` states its angles.
+    let r = [
+        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+        [-sp, cp * sr, cp * cr],
+    ];
+    let t = cloud.sensor_pose.position;
+    let base = cloud.robot_pose;
+    let (sb, cb) = base.theta.sin_cos();
+    let n = (cloud.rows as usize * cloud.cols as usize).min(cloud.points.len());
+    cloud.points[..n].iter().map(move |p| {
+        let p = p.map(f64::from);
+        let m: [f64; 3] =
+            std::array::from_fn(|i| t[i] + r[i][0] * p[0] + r[i][1] * p[1] + r[i][2] * p[2]);
+        let (dx, dy) = (m[0] - base.x, m[1] - base.y);
+        [cb * dx + sb * dy, -sb * dx + cb * dy, m[2]]
+    })
+}
+
+impl Stage for MonitorStage {
+    const KIND: NodeKind = NodeKind::External(ExternalNode::new(NAME));
+    type Trigger = PointCloud;
+    const TRIGGER: Topic<PointCloud> = topics::POINT_CLOUD;
+    const NEWEST_ONLY: bool = true;
+
+    fn start(&mut self, _io: &impl Io, ctx: &RunContext) -> Result<(), NodeError> {
+        // Ids must grow across a restart too: start above any a predecessor could have
+        // used in a run of this length (the simulator ignores stale ones anyway).
+        if ctx.restarted {
+            self.next_id = 1 << 32;
+        }
+        Ok(())
+    }
+
+    fn process(&mut self, cloud: &PointCloud, io: &impl Io) -> Result<Cycle, NodeError> {
+        // The velocity the simulator applied at the scan's tick.
+        if let Some(goal) = io.latest(topics::CONTROLLER_GOAL)? {
+            self.docking = goal.mode == GoalMode::Straight as u32;
+        }
+        if let Some(rs) = io.latest(topics::ROBOT_STATE)? {
+            self.twist = Some(rs.twist);
+        }
+        let Some([speed, turn_rate]) = self.twist.filter(|_| !self.docking) else {
+            return Ok(Cycle::done());
+        };
+        let corridor = if cloud.carried_body >= 0 {
+            &self.carrying
+        } else {
+            &self.alone
+        };
+        let verdict = self
+            .rule
+            .judge(base_frame_points(cloud), speed, turn_rate, corridor);
+        if verdict.stop {
+            self.stops += 1;
+            tracing::info!(
+                "safety_monitor: tick {}: return {:.2} m ahead, stopping distance {:.2} m at {speed:.2} m/s: stop",
+                cloud.header.tick,
+                verdict.nearest.unwrap_or(0.0),
+                verdict.stopping_distance
+            );
+            let id = self.next_id;
+            self.next_id += 1;
+            io.publish(
+                topics::SIM_COMMAND,
+                Stamp::of(&cloud.header),
+                |c: &mut SimCommand| {
+                    c.command_id = id;
+                    c.kind = SimCommandKind::Stop as u32;
+                    c.body_index = -1;
+                },
+            )?;
+        }
+        Ok(Cycle::done())
+    }
+}
