@@ -70,6 +70,7 @@ impl Bus {
             m.seed = seed;
             m.mode = mode as u32;
         })?;
+        crate::discovery::write(instance, schema_hash, seed, mode)?;
         Ok((bus, info))
     }
 

@@ -3,7 +3,8 @@
 //! - [`Instance`]: one isolated iceoryx2 instance per launch (unique prefix and root),
 //!   handed to every child, private to its user, and removed without a trace when the
 //!   launch ends; [`run_dir`] is where roots live and whether that place is trusted;
-//!   [`sweep`] removes what dead instances left.
+//!   [`sweep`] removes what dead instances left; [`discovery`] writes and finds the
+//!   `aisle-instance.toml` by which processes not launched by a supervisor join.
 //! - [`Bus`]: a process's membership: its iceoryx2 node, the schema-hash check on join,
 //!   heartbeats, and cleanup of resources left by dead nodes.
 //! - [`Publisher`] / [`Subscriber`]: typed pub/sub ports, each paired with an event
@@ -20,6 +21,7 @@
 mod args;
 mod bus;
 pub mod clock;
+pub mod discovery;
 mod error;
 mod instance;
 mod mgmt_segment;

@@ -113,6 +113,8 @@ a scenario that could not be generated), 2 could not run (invalid base config, b
 arguments, unwritable output directory)."
     )]
     Sweep(SweepArgs),
+    #[command(flatten)]
+    Inspect(crate::inspect_cli::InspectCommand),
     /// Run one node of a process group (started by `aisle run`, not by hand).
     #[command(hide = true)]
     Node(NodeCmd),
@@ -334,6 +336,7 @@ pub fn main() -> ExitCode {
             records::render(&file, &output, pixels_per_metre, band_every)
         }
         Command::Clean { dry_run } => crate::clean::clean(dry_run),
+        Command::Inspect(c) => crate::inspect_cli::main(c),
         Command::Scenario {
             command:
                 ScenarioCommand::Generate {
@@ -394,6 +397,7 @@ fn export_map(config_dir: &Path, dir: &Path, name: &str) -> ExitCode {
 
 /// `aisle run`.
 fn run(opts: &RunOptions) -> ExitCode {
+    aisle_bus::discovery::set_creator("run", Some(&opts.config_dir));
     match session::run(opts) {
         Ok(outcome) => {
             if outcome.succeeded {
