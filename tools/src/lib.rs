@@ -9,6 +9,8 @@
 //! - [`latency`]: the latency figures of a run (quantiles, budgets, tick release), one
 //!   definition for `aisle run` and `aisle profile`;
 //! - [`profile`]: those figures (and output latencies) from a recorded file;
+//! - [`inspect`]: a running instance seen from outside, topic by topic (`aisle topics`,
+//!   `echo`, `hz`): services, samples as text, rates;
 //! - [`render`]: a top-view PNG of a run; [`animate`]: a self-contained HTML page that
 //!   plays the run back.
 //!
@@ -24,6 +26,7 @@ pub mod animate;
 pub mod canvas;
 pub mod catalog;
 pub mod diff;
+pub mod inspect;
 pub mod latency;
 pub mod lockstep;
 mod payload_fields;

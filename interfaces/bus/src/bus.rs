@@ -11,8 +11,8 @@ use iceoryx2::prelude::*;
 use std::time::Duration;
 
 pub struct Bus {
-    node: Node<ipc::Service>,
-    config: Config,
+    pub(crate) node: Node<ipc::Service>,
+    pub(crate) config: Config,
     instance: Instance,
     kind: NodeKind,
 }

@@ -10,6 +10,7 @@
 //! - [`Publisher`] / [`Subscriber`]: typed pub/sub ports, each paired with an event
 //!   service of the same name so a process sleeps until data arrives or a deadline passes.
 //!   Large messages are zero-filled and written in place in the loaned sample.
+//! - [`Bus::services`]: the instance's publish/subscribe services with their port counts.
 //! - [`signals`]: SIGINT/SIGTERM become a stop request that every wait loop checks.
 //!
 //! Ports are opened with the typed topics of `aisle_messages::topics` (name, type and
@@ -31,6 +32,7 @@ mod port;
 mod raw;
 mod request;
 pub mod run_dir;
+mod services;
 pub mod signals;
 pub mod sweep;
 
@@ -43,3 +45,4 @@ pub use node::NodeError;
 pub use port::{Publisher, Received, Stamp, Subscriber, WaitOutcome, message_bytes};
 pub use raw::{RawPublisher, RawSubscriber};
 pub use request::{Client, Correlated};
+pub use services::ServiceSummary;
