@@ -1,7 +1,8 @@
 //! aisle-tools: recording, replay, profiling and pictures of aisle runs.
 //!
 //! - [`record`]: the recorder node (`run_recorder`) writing one MCAP file per run;
-//! - [`replay`]: publishes a recorded file back into a live instance;
+//! - [`replay`]: publishes a recorded file back into a live instance, or (`replay_own`)
+//!   into one it creates itself, for consumers without a supervisor;
 //! - [`lockstep`]: replays a lockstep recording tick by tick into live consumers and
 //!   compares their outputs with the recorded ones ([`tick_batches`] regroups the file,
 //!   [`diff`] names the first differing field);
@@ -36,6 +37,7 @@ pub mod reader;
 pub mod record;
 pub mod render;
 pub mod replay;
+mod replay_own;
 pub mod tick_batches;
 pub mod viewer;
 pub mod writer;

@@ -52,7 +52,8 @@ key), 2 the config directory cannot be read."
         command: MapCommand,
     },
     /// Publish a recorded run into a live process group (`--prefix`/`--root` of its
-    /// instance, as `aisle run` logs them), or `--check` it against this build.
+    /// instance, as `aisle run` logs them) or, without them, into an instance of its own
+    /// that consumers find by discovery; or `--check` it against this build.
     #[command(
         after_help = "Exit: 0 replayed (--check: identical), 1 --check diverged \
 (the first divergence is printed), 2 could not (unreadable or damaged record, no group, \
@@ -179,12 +180,19 @@ pub struct RunArgs {
 #[derive(Debug, Clone, Args)]
 pub struct ReplayArgs {
     pub file: PathBuf,
-    /// Instance prefix of the live group to publish into (as `aisle run` logs it).
-    #[arg(long, required_unless_present_any = ["check", "lockstep"], requires = "root")]
+    /// Instance prefix of the live group to publish into (as `aisle run` logs it);
+    /// without --prefix/--root the replay creates its own instance (found by discovery).
+    #[arg(long, requires = "root")]
     pub prefix: Option<String>,
     /// Instance root of the live group.
-    #[arg(long, required_unless_present_any = ["check", "lockstep"], requires = "prefix")]
+    #[arg(long, requires = "prefix")]
     pub root: Option<PathBuf>,
+    /// Play the file again from its start when it ends, until Ctrl-C.
+    #[arg(long = "loop", conflicts_with_all = ["check", "lockstep"])]
+    pub looping: bool,
+    /// Before the first sample, wait until the replayed topics have N subscribers.
+    #[arg(long, value_name = "N", default_value_t = 0, conflicts_with_all = ["check", "lockstep"])]
+    pub wait_subscribers: usize,
     /// Playback rate relative to the recording (omit with --fast for no pacing).
     #[arg(long, default_value_t = 1.0)]
     pub rate: f64,
@@ -447,6 +455,8 @@ impl From<ReplayArgs> for ReplayRequest {
             wait_for: a.wait_for,
             check: a.check,
             config_dir: a.config_dir,
+            looping: a.looping,
+            wait_subscribers: a.wait_subscribers,
         }
     }
 }
