@@ -262,7 +262,7 @@ fn uptime_ticks() -> Option<(u64, f64)> {
     let secs: f64 = text.split_whitespace().next()?.parse().ok()?;
     // SAFETY: sysconf has no preconditions.
     let hz = unsafe { libc::sysconf(libc::_SC_CLK_TCK) };
-    (hz > 0).then(|| ((secs * hz as f64) as u64, hz as f64))
+    (hz > 0).then_some(((secs * hz as f64) as u64, hz as f64))
 }
 
 /// Why no instance was found.
