@@ -126,7 +126,7 @@ fn value_diff(ty: &str, a: &[u8], b: &[u8], path: &str, ignore: &[&str]) -> Opti
 }
 
 /// A number decoded from its little-endian bytes; `None` when `ty` is not a number type.
-fn primitive(ty: &str, bytes: &[u8]) -> Option<String> {
+pub(crate) fn primitive(ty: &str, bytes: &[u8]) -> Option<String> {
     macro_rules! num {
         ($($t:ty),*) => {
             $(if ty == stringify!($t) {
@@ -139,7 +139,7 @@ fn primitive(ty: &str, bytes: &[u8]) -> Option<String> {
     None
 }
 
-fn primitive_size(ty: &str) -> Option<usize> {
+pub(crate) fn primitive_size(ty: &str) -> Option<usize> {
     Some(match ty {
         "u8" | "i8" => 1,
         "u16" | "i16" => 2,
@@ -150,13 +150,13 @@ fn primitive_size(ty: &str) -> Option<usize> {
 }
 
 /// `[T; N]` as (`T`, `N`), both trimmed; `T` may itself be an array.
-fn array_parts(ty: &str) -> Option<(&str, &str)> {
+pub(crate) fn array_parts(ty: &str) -> Option<(&str, &str)> {
     let inner = ty.trim().strip_prefix('[')?.strip_suffix(']')?;
     let (elem, len) = inner.rsplit_once(';')?;
     Some((elem.trim(), len.trim()))
 }
 
-fn type_size(ty: &str) -> Option<usize> {
+pub(crate) fn type_size(ty: &str) -> Option<usize> {
     if let Some((elem, len)) = array_parts(ty) {
         return type_size(elem)?.checked_mul(len.parse().ok()?);
     }
@@ -170,7 +170,7 @@ fn type_size(ty: &str) -> Option<usize> {
 }
 
 /// The fields of the nested struct written `ident` in a field type.
-fn nested(ident: &str) -> Option<&'static [FieldLayout]> {
+pub(crate) fn nested(ident: &str) -> Option<&'static [FieldLayout]> {
     all_layouts()
         .into_iter()
         .find(|l| ident_matches(ident, l.0))

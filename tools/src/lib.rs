@@ -1,7 +1,8 @@
 //! aisle-tools: recording, replay, profiling and pictures of aisle runs.
 //!
 //! - [`record`]: the recorder node (`run_recorder`) writing one MCAP file per run;
-//! - [`replay`]: publishes a recorded file back into a live instance;
+//! - [`replay`]: publishes a recorded file back into a live instance, or (`replay_own`)
+//!   into one it creates itself, for consumers without a supervisor;
 //! - [`lockstep`]: replays a lockstep recording tick by tick into live consumers and
 //!   compares their outputs with the recorded ones ([`tick_batches`] regroups the file,
 //!   [`diff`] names the first differing field);
@@ -9,6 +10,8 @@
 //! - [`latency`]: the latency figures of a run (quantiles, budgets, tick release), one
 //!   definition for `aisle run` and `aisle profile`;
 //! - [`profile`]: those figures (and output latencies) from a recorded file;
+//! - [`inspect`]: a running instance seen from outside, topic by topic (`aisle topics`,
+//!   `echo`, `hz`): services, samples as text, rates;
 //! - [`render`]: a top-view PNG of a run; [`animate`]: a self-contained HTML page that
 //!   plays the run back.
 //!
@@ -24,6 +27,7 @@ pub mod animate;
 pub mod canvas;
 pub mod catalog;
 pub mod diff;
+pub mod inspect;
 pub mod latency;
 pub mod lockstep;
 mod payload_fields;
@@ -33,6 +37,7 @@ pub mod reader;
 pub mod record;
 pub mod render;
 pub mod replay;
+mod replay_own;
 pub mod tick_batches;
 pub mod viewer;
 pub mod writer;

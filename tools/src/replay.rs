@@ -8,8 +8,10 @@
 //! messages go out as fast as possible. A start offset skips the beginning but first
 //! publishes the newest sample of each state service (history > 0: maps, goals, band),
 //! as a late subscriber would have received it. A truncated file is replayed as far as
-//! it can be read, and the summary says where it ends. Lockstep replay (waiting for the
-//! consumers' acknowledgements) is not done here.
+//! it can be read, and the summary says where it ends. Publishers hand their history to
+//! late subscribers, as live ones do. Without a supervisor the replay creates the
+//! instance itself (`replay_own.rs`). Lockstep replay (waiting for the consumers'
+//! acknowledgements) is not done here.
 
 use crate::catalog::{ServiceInfo, service_info, services};
 use crate::raw_ports::{RawSink, open_sink};
@@ -38,6 +40,14 @@ pub struct ReplayOptions {
     /// Pause after creating the publishers, so live subscribers connect before the
     /// first sample goes out.
     pub settle: Duration,
+    /// Create `instance` rather than join it (no supervisor needed): announced with the
+    /// record's seed and clock mode, and removed when the replay ends (`replay_own.rs`).
+    pub create: bool,
+    /// Play the file again from its start when it ends, until a stop request.
+    pub looping: bool,
+    /// Before the first sample, wait until the replayed topics have at least this many
+    /// subscribers together (0: do not wait).
+    pub wait_subscribers: usize,
 }
 
 impl ReplayOptions {
@@ -50,6 +60,9 @@ impl ReplayOptions {
             start_offset_ns: 0,
             join_timeout: Duration::from_secs(10),
             settle: Duration::from_millis(200),
+            create: false,
+            looping: false,
+            wait_subscribers: 0,
         }
     }
 }
@@ -71,6 +84,8 @@ pub struct ReplaySummary {
     /// The file was written by a build with another schema hash, but every replayed
     /// service has the same layout as ours.
     pub foreign_schema_hash: Option<String>,
+    /// Passes over the file begun (more than one with `looping`).
+    pub passes: u64,
 }
 
 impl ReplaySummary {
@@ -207,7 +222,8 @@ pub fn plan(
     Ok((selected, foreign))
 }
 
-/// Replays a recorded file into a live instance (see the module docs).
+/// Replays a recorded file into a live instance, or into one of its own with
+/// `opts.create` (see the module docs).
 pub fn replay(opts: &ReplayOptions) -> Result<ReplaySummary, ReplayError> {
     if let Some(r) = opts.rate
         && !(r.is_finite() && r > 0.0)
@@ -216,99 +232,204 @@ pub fn replay(opts: &ReplayOptions) -> Result<ReplaySummary, ReplayError> {
     }
     let file = RecordFile::open(&opts.file)?;
     let (selected, foreign) = plan(&file, &opts.topics)?;
+    if opts.create {
+        return crate::replay_own::replay_own(opts, &file, &selected, foreign);
+    }
     let (bus, _info) = Bus::join(&opts.instance, NodeKind::Replay, opts.join_timeout)?;
+    publish_file(&bus, &file, &selected, opts, foreign, None)
+}
+
+/// Opens a publisher per selected service and plays the file through them, once or
+/// (`looping`) until a stop request. `announcement`: the instance's announcement when
+/// this process created it, handed to joiners along with the state history.
+pub(crate) fn publish_file(
+    bus: &Bus,
+    file: &RecordFile,
+    selected: &[String],
+    opts: &ReplayOptions,
+    foreign: Option<String>,
+    announcement: Option<&dyn RawSink>,
+) -> Result<ReplaySummary, ReplayError> {
     let catalog = services();
     let mut sinks: Vec<Option<Box<dyn RawSink>>> = Vec::with_capacity(catalog.len());
     for info in &catalog {
         sinks.push(if selected.iter().any(|t| t == info.service) {
-            open_sink(&bus, info.service)?
+            open_sink(bus, info.service)?
         } else {
             None
         });
     }
-    std::thread::sleep(opts.settle);
-    let index_of = |topic: &str| catalog.iter().position(|i| i.service == topic);
-
+    let mut pass = Pass {
+        sinks,
+        catalog,
+        announcement,
+        refreshed_ns: 0,
+    };
     let mut summary = ReplaySummary {
         foreign_schema_hash: foreign,
         ..ReplaySummary::default()
     };
-    let mut first_log_time = None;
-    let mut pacing: Option<(u64, u64)> = None; // (recorded t0, wall t0)
-    let mut latched: BTreeMap<usize, Vec<u8>> = BTreeMap::new();
-    let mut latched_done = opts.start_offset_ns == 0;
-    for m in file.raw_messages() {
-        let m = match m {
-            Ok(m) => m,
-            Err(e) => {
-                summary.truncated = Some(e.to_string());
-                break;
+    let settled = pass.sleep_until(clock::monotonic_ns() + opts.settle.as_nanos() as u64)?;
+    if !settled || !pass.wait_for_subscribers(bus, selected, opts.wait_subscribers)? {
+        summary.stopped = true;
+        return Ok(summary);
+    }
+    loop {
+        summary.passes += 1;
+        pass.play(file, opts, &mut summary)?;
+        if !opts.looping || summary.stopped || summary.truncated.is_some() {
+            return Ok(summary);
+        }
+    }
+}
+
+/// The publishers of one replay, and when they last handed history to new subscribers.
+struct Pass<'a> {
+    sinks: Vec<Option<Box<dyn RawSink>>>,
+    catalog: Vec<ServiceInfo>,
+    announcement: Option<&'a dyn RawSink>,
+    refreshed_ns: u64,
+}
+
+impl Pass<'_> {
+    /// Connects subscribers that joined since the last call (at most every 20 ms), so a
+    /// late one receives the newest state sample as from a live publisher.
+    fn refresh(&mut self) -> Result<(), BusError> {
+        let now = clock::monotonic_ns();
+        if now.saturating_sub(self.refreshed_ns) >= 20_000_000 {
+            self.refreshed_ns = now;
+            for s in self.sinks.iter().flatten() {
+                s.update_connections()?;
             }
-        };
-        if signals::stop_requested() {
-            summary.stopped = true;
-            break;
-        }
-        let Some(i) = index_of(&m.channel.topic) else {
-            continue;
-        };
-        let first = *first_log_time.get_or_insert(m.log_time);
-        if sinks[i].is_none() {
-            continue;
-        }
-        if m.log_time < first.saturating_add(opts.start_offset_ns) {
-            summary.skipped += 1;
-            if topics::info(&m.channel.topic).is_some_and(|t| t.qos.history > 0) {
-                latched.insert(i, m.data);
+            if let Some(a) = self.announcement {
+                a.update_connections()?;
             }
-            continue;
         }
-        if !latched_done {
-            latched_done = true;
-            for (li, data) in std::mem::take(&mut latched) {
-                if let Some(sink) = sinks[li].as_mut() {
-                    sink.publish_raw(&data)?;
-                    summary.latched += 1;
-                    *summary
-                        .published
-                        .entry(catalog[li].service.to_string())
-                        .or_default() += 1;
+        Ok(())
+    }
+
+    fn publish(
+        &mut self,
+        i: usize,
+        data: &[u8],
+        summary: &mut ReplaySummary,
+    ) -> Result<(), BusError> {
+        if let Some(sink) = self.sinks[i].as_mut() {
+            sink.publish_raw(data)?;
+            *summary
+                .published
+                .entry(self.catalog[i].service.to_string())
+                .or_default() += 1;
+        }
+        Ok(())
+    }
+
+    /// One pass over the file.
+    fn play(
+        &mut self,
+        file: &RecordFile,
+        opts: &ReplayOptions,
+        summary: &mut ReplaySummary,
+    ) -> Result<(), ReplayError> {
+        let mut first_log_time = None;
+        let mut pacing: Option<(u64, u64)> = None; // (recorded t0, wall t0)
+        let mut latched: BTreeMap<usize, Vec<u8>> = BTreeMap::new();
+        let mut latched_done = opts.start_offset_ns == 0;
+        for m in file.raw_messages() {
+            let m = match m {
+                Ok(m) => m,
+                Err(e) => {
+                    summary.truncated = Some(e.to_string());
+                    break;
                 }
-            }
-        }
-        if let Some(rate) = opts.rate {
-            let (t0, w0) = *pacing.get_or_insert((m.log_time, clock::monotonic_ns()));
-            let due = w0 + ((m.log_time.saturating_sub(t0)) as f64 / rate) as u64;
-            if !sleep_until(due) {
+            };
+            if signals::stop_requested() {
                 summary.stopped = true;
                 break;
             }
-            summary.max_lateness_ns = summary
-                .max_lateness_ns
-                .max(clock::monotonic_ns().saturating_sub(due));
+            let Some(i) = self
+                .catalog
+                .iter()
+                .position(|c| c.service == m.channel.topic)
+            else {
+                continue;
+            };
+            let first = *first_log_time.get_or_insert(m.log_time);
+            if self.sinks[i].is_none() {
+                continue;
+            }
+            if m.log_time < first.saturating_add(opts.start_offset_ns) {
+                summary.skipped += 1;
+                if topics::info(&m.channel.topic).is_some_and(|t| t.qos.history > 0) {
+                    latched.insert(i, m.data);
+                }
+                continue;
+            }
+            if !latched_done {
+                latched_done = true;
+                for (li, data) in std::mem::take(&mut latched) {
+                    self.publish(li, &data, summary)?;
+                    summary.latched += 1;
+                }
+            }
+            if let Some(rate) = opts.rate {
+                let (t0, w0) = *pacing.get_or_insert((m.log_time, clock::monotonic_ns()));
+                let due = w0 + ((m.log_time.saturating_sub(t0)) as f64 / rate) as u64;
+                if !self.sleep_until(due)? {
+                    summary.stopped = true;
+                    break;
+                }
+                summary.max_lateness_ns = summary
+                    .max_lateness_ns
+                    .max(clock::monotonic_ns().saturating_sub(due));
+            }
+            self.refresh()?;
+            self.publish(i, &m.data, summary)?;
         }
-        if let Some(sink) = sinks[i].as_mut() {
-            sink.publish_raw(&m.data)?;
-            *summary
-                .published
-                .entry(m.channel.topic.clone())
-                .or_default() += 1;
+        Ok(())
+    }
+
+    /// Waits until the `selected` services have at least `n` subscribers together;
+    /// false when a stop was requested first.
+    fn wait_for_subscribers(
+        &mut self,
+        bus: &Bus,
+        selected: &[String],
+        n: usize,
+    ) -> Result<bool, BusError> {
+        if n > 0 {
+            tracing::info!("waiting for {n} subscriber(s) of the replayed topics");
+        }
+        loop {
+            let subscribers: usize = bus
+                .services()?
+                .iter()
+                .filter(|s| selected.contains(&s.name))
+                .filter_map(|s| s.ports.map(|(_, sub)| sub))
+                .sum();
+            if subscribers >= n {
+                return Ok(true);
+            }
+            if !self.sleep_until(clock::monotonic_ns() + 20_000_000)? {
+                return Ok(false);
+            }
         }
     }
-    Ok(summary)
-}
 
-/// Sleeps until the monotonic clock reaches `due`; false when a stop was requested.
-fn sleep_until(due: u64) -> bool {
-    loop {
-        if signals::stop_requested() {
-            return false;
+    /// Sleeps until the monotonic clock reaches `due`, connecting late subscribers
+    /// meanwhile; false when a stop was requested.
+    fn sleep_until(&mut self, due: u64) -> Result<bool, BusError> {
+        loop {
+            if signals::stop_requested() {
+                return Ok(false);
+            }
+            self.refresh()?;
+            let now = clock::monotonic_ns();
+            if now >= due {
+                return Ok(true);
+            }
+            std::thread::sleep(Duration::from_nanos((due - now).min(20_000_000)));
         }
-        let now = clock::monotonic_ns();
-        if now >= due {
-            return true;
-        }
-        std::thread::sleep(Duration::from_nanos((due - now).min(50_000_000)));
     }
 }
 

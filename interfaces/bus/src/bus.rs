@@ -11,8 +11,8 @@ use iceoryx2::prelude::*;
 use std::time::Duration;
 
 pub struct Bus {
-    node: Node<ipc::Service>,
-    config: Config,
+    pub(crate) node: Node<ipc::Service>,
+    pub(crate) config: Config,
     instance: Instance,
     kind: NodeKind,
 }
@@ -70,6 +70,7 @@ impl Bus {
             m.seed = seed;
             m.mode = mode as u32;
         })?;
+        crate::discovery::write(instance, schema_hash, seed, mode)?;
         Ok((bus, info))
     }
 

@@ -3,12 +3,14 @@
 //! - [`Instance`]: one isolated iceoryx2 instance per launch (unique prefix and root),
 //!   handed to every child, private to its user, and removed without a trace when the
 //!   launch ends; [`run_dir`] is where roots live and whether that place is trusted;
-//!   [`sweep`] removes what dead instances left.
+//!   [`sweep`] removes what dead instances left; [`discovery`] writes and finds the
+//!   `aisle-instance.toml` by which processes not launched by a supervisor join.
 //! - [`Bus`]: a process's membership: its iceoryx2 node, the schema-hash check on join,
 //!   heartbeats, and cleanup of resources left by dead nodes.
 //! - [`Publisher`] / [`Subscriber`]: typed pub/sub ports, each paired with an event
 //!   service of the same name so a process sleeps until data arrives or a deadline passes.
 //!   Large messages are zero-filled and written in place in the loaned sample.
+//! - [`Bus::services`]: the instance's publish/subscribe services with their port counts.
 //! - [`signals`]: SIGINT/SIGTERM become a stop request that every wait loop checks.
 //!
 //! Ports are opened with the typed topics of `aisle_messages::topics` (name, type and
@@ -20,6 +22,7 @@
 mod args;
 mod bus;
 pub mod clock;
+pub mod discovery;
 mod error;
 mod instance;
 mod mgmt_segment;
@@ -29,6 +32,7 @@ mod port;
 mod raw;
 mod request;
 pub mod run_dir;
+mod services;
 pub mod signals;
 pub mod sweep;
 
@@ -41,3 +45,4 @@ pub use node::NodeError;
 pub use port::{Publisher, Received, Stamp, Subscriber, WaitOutcome, message_bytes};
 pub use raw::{RawPublisher, RawSubscriber};
 pub use request::{Client, Correlated};
+pub use services::ServiceSummary;

@@ -2,8 +2,9 @@
 //! replays, the supervisor's retained state): payloads go in and out as the exact bytes
 //! that lie in shared memory. The type is looked up once, when the port is opened.
 
-use crate::{Bus, BusError, Publisher, Subscriber, message_bytes};
+use crate::{Bus, BusError, Publisher, Subscriber, WaitOutcome, message_bytes};
 use aisle_messages::{Message, Topic, TopicVisitor, topics};
+use std::time::Duration;
 
 /// A publisher of recorded or retained payloads, whatever the message type.
 pub trait RawPublisher {
@@ -19,6 +20,9 @@ pub trait RawSubscriber {
     fn receive_raw(&self, f: &mut dyn FnMut(&[u8])) -> Result<bool, BusError>;
     /// Replaces `copy` with the newest payload, if one arrived (older ones are dropped).
     fn latest_into(&self, copy: &mut Vec<u8>) -> Result<bool, BusError>;
+    /// Sleeps until a payload arrives (then calls `f` with it) or `timeout` passes;
+    /// false on timeout. A stop request ends the wait with `BusError::StopRequested`.
+    fn wait_raw(&self, timeout: Duration, f: &mut dyn FnMut(&[u8])) -> Result<bool, BusError>;
 }
 
 impl<M: Message> RawPublisher for Publisher<M> {
@@ -48,6 +52,15 @@ impl<M: Message> RawSubscriber for Subscriber<M> {
                 Ok(true)
             }
             None => Ok(false),
+        }
+    }
+    fn wait_raw(&self, timeout: Duration, f: &mut dyn FnMut(&[u8])) -> Result<bool, BusError> {
+        match self.wait_for(timeout, |_| true, || {})? {
+            (WaitOutcome::Matched, Some(s)) => {
+                f(message_bytes(&*s));
+                Ok(true)
+            }
+            _ => Ok(false),
         }
     }
 }

@@ -52,7 +52,8 @@ key), 2 the config directory cannot be read."
         command: MapCommand,
     },
     /// Publish a recorded run into a live process group (`--prefix`/`--root` of its
-    /// instance, as `aisle run` logs them), or `--check` it against this build.
+    /// instance, as `aisle run` logs them) or, without them, into an instance of its own
+    /// that consumers find by discovery; or `--check` it against this build.
     #[command(
         after_help = "Exit: 0 replayed (--check: identical), 1 --check diverged \
 (the first divergence is printed), 2 could not (unreadable or damaged record, no group, \
@@ -113,6 +114,8 @@ a scenario that could not be generated), 2 could not run (invalid base config, b
 arguments, unwritable output directory)."
     )]
     Sweep(SweepArgs),
+    #[command(flatten)]
+    Inspect(crate::inspect_cli::InspectCommand),
     /// Run one node of a process group (started by `aisle run`, not by hand).
     #[command(hide = true)]
     Node(NodeCmd),
@@ -177,12 +180,19 @@ pub struct RunArgs {
 #[derive(Debug, Clone, Args)]
 pub struct ReplayArgs {
     pub file: PathBuf,
-    /// Instance prefix of the live group to publish into (as `aisle run` logs it).
-    #[arg(long, required_unless_present_any = ["check", "lockstep"], requires = "root")]
+    /// Instance prefix of the live group to publish into (as `aisle run` logs it);
+    /// without --prefix/--root the replay creates its own instance (found by discovery).
+    #[arg(long, requires = "root")]
     pub prefix: Option<String>,
     /// Instance root of the live group.
-    #[arg(long, required_unless_present_any = ["check", "lockstep"], requires = "prefix")]
+    #[arg(long, requires = "prefix")]
     pub root: Option<PathBuf>,
+    /// Play the file again from its start when it ends, until Ctrl-C.
+    #[arg(long = "loop", conflicts_with_all = ["check", "lockstep"])]
+    pub looping: bool,
+    /// Before the first sample, wait until the replayed topics have N subscribers.
+    #[arg(long, value_name = "N", default_value_t = 0, conflicts_with_all = ["check", "lockstep"])]
+    pub wait_subscribers: usize,
     /// Playback rate relative to the recording (omit with --fast for no pacing).
     #[arg(long, default_value_t = 1.0)]
     pub rate: f64,
@@ -334,6 +344,7 @@ pub fn main() -> ExitCode {
             records::render(&file, &output, pixels_per_metre, band_every)
         }
         Command::Clean { dry_run } => crate::clean::clean(dry_run),
+        Command::Inspect(c) => crate::inspect_cli::main(c),
         Command::Scenario {
             command:
                 ScenarioCommand::Generate {
@@ -394,6 +405,7 @@ fn export_map(config_dir: &Path, dir: &Path, name: &str) -> ExitCode {
 
 /// `aisle run`.
 fn run(opts: &RunOptions) -> ExitCode {
+    aisle_bus::discovery::set_creator("run", Some(&opts.config_dir));
     match session::run(opts) {
         Ok(outcome) => {
             if outcome.succeeded {
@@ -443,6 +455,8 @@ impl From<ReplayArgs> for ReplayRequest {
             wait_for: a.wait_for,
             check: a.check,
             config_dir: a.config_dir,
+            looping: a.looping,
+            wait_subscribers: a.wait_subscribers,
         }
     }
 }

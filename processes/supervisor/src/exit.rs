@@ -21,7 +21,8 @@ Exit codes (every subcommand):
   0  success: the mission succeeded, the config is valid, the replay is identical,
      the command did what was asked
   1  the verdict is negative: the mission failed (a collision, an unreachable goal,
-     a timeout), `check` found an invalid config, `replay --check` diverged
+     a timeout), `check` found an invalid config, `replay --check` diverged,
+     `instance` found no live instance
   2  could not do what was asked: usage error, unreadable or invalid input (config,
      mission, record), output path not writable, setup failure, damaged record,
      the group could not run or was interrupted";

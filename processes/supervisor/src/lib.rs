@@ -11,6 +11,8 @@
 //! - [`check`]: validation of every file in `config/`.
 //! - [`exit`]: the exit codes every subcommand follows.
 //! - [`collisions`]: collision events (body, time) from ground truth.
+//! - [`inspect_cli`]: `aisle instance`, `topics`, `echo` and `hz`: a running instance seen
+//!   from outside its group.
 //! - [`clean`]: `aisle clean` and the sweep of stale instances before a run.
 //! - [`nodes`]: `aisle node <name>`, which runs one process's node adapter.
 //! - [`records`]: `aisle replay`, `profile` and `render` of MCAP recordings.
@@ -24,6 +26,7 @@ pub mod clean;
 pub mod cli;
 pub mod collisions;
 pub mod exit;
+pub mod inspect_cli;
 pub mod launch;
 pub mod mission;
 pub mod nodes;

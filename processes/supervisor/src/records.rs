@@ -25,6 +25,8 @@ pub struct ReplayRequest {
     pub wait_for: Vec<String>,
     pub check: bool,
     pub config_dir: Option<PathBuf>,
+    pub looping: bool,
+    pub wait_subscribers: usize,
 }
 
 /// `aisle record` as asked on the command line, with the config directory resolved.
@@ -77,16 +79,24 @@ pub fn replay(a: &ReplayRequest) -> ExitCode {
     if a.lockstep {
         return replay_lockstep(a, instance);
     }
-    let Some(instance) = instance else {
-        return fail("--prefix and --root name the live instance to replay into");
-    };
     if !(a.rate.is_finite() && a.rate > 0.0) {
         return fail(format!("--rate must be positive, got {}", a.rate));
     }
+    let create = instance.is_none();
+    let instance = match instance {
+        Some(i) => i,
+        None => match own_instance() {
+            Ok(i) => i,
+            Err(e) => return fail(e),
+        },
+    };
     let mut opts = aisle_tools::replay::ReplayOptions::new(&a.file, instance);
     opts.rate = (!a.fast).then_some(a.rate);
     opts.topics = a.topics.clone();
     opts.start_offset_ns = (a.start * 1e9).round() as u64;
+    opts.create = create;
+    opts.looping = a.looping;
+    opts.wait_subscribers = a.wait_subscribers;
     match aisle_tools::replay::replay(&opts) {
         Ok(s) => {
             let total: u64 = s.published.values().sum();
@@ -96,6 +106,15 @@ pub fn replay(a: &ReplayRequest) -> ExitCode {
         }
         Err(e) => fail(e),
     }
+}
+
+/// A new instance in the run directory for a replay without a supervisor (what dead
+/// instances left there is swept first, as `aisle run` does).
+fn own_instance() -> anyhow::Result<Instance> {
+    let dir = aisle_bus::run_dir::run_dir()?;
+    crate::clean::sweep_before_run(&dir);
+    aisle_bus::discovery::set_creator("replay", None);
+    Ok(Instance::unique(&dir))
 }
 
 /// `aisle record`: the recorder node attached to a running group, from this process.
