@@ -16,6 +16,7 @@ mod common;
 mod grid;
 mod layout;
 pub mod topics;
+pub mod wire;
 
 pub use catalog::*;
 pub use common::*;

@@ -113,6 +113,8 @@ a scenario that could not be generated), 2 could not run (invalid base config, b
 arguments, unwritable output directory)."
     )]
     Sweep(SweepArgs),
+    #[command(flatten)]
+    Gen(crate::gen_cli::GenCommand),
     /// Run one node of a process group (started by `aisle run`, not by hand).
     #[command(hide = true)]
     Node(NodeCmd),
@@ -334,6 +336,7 @@ pub fn main() -> ExitCode {
             records::render(&file, &output, pixels_per_metre, band_every)
         }
         Command::Clean { dry_run } => crate::clean::clean(dry_run),
+        Command::Gen(c) => crate::gen_cli::main(c),
         Command::Scenario {
             command:
                 ScenarioCommand::Generate {
