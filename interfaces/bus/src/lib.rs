@@ -42,7 +42,10 @@ pub use bus::{Bus, HeartbeatSender};
 pub use error::BusError;
 pub use instance::{Instance, MAX_ROOT_AND_PREFIX};
 pub use node::NodeError;
-pub use port::{Publisher, Received, Stamp, Subscriber, WaitOutcome, message_bytes};
+pub use port::{
+    Publisher, Received, SERVICE_SETTINGS, ServiceSettings, Stamp, Subscriber, WaitOutcome,
+    message_bytes,
+};
 pub use raw::{RawPublisher, RawSubscriber};
 pub use request::{Client, Correlated};
 pub use services::ServiceSummary;

@@ -29,6 +29,34 @@ impl Stamp {
     }
 }
 
+/// The service settings every process opens a topic with beyond its [`Qos`] (iceoryx2
+/// refuses to open a service with incompatible ones): stated once, here, for the Rust ports
+/// and for generated bindings of other languages.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ServiceSettings {
+    /// Samples a subscriber may hold at once.
+    pub subscriber_max_borrowed_samples: usize,
+    /// A full subscriber buffer drops its oldest sample instead of blocking the publisher.
+    pub enable_safe_overflow: bool,
+    /// Processes that may open one service (publish/subscribe and event alike).
+    pub max_nodes: usize,
+    /// Samples a publisher may loan at once.
+    pub publisher_max_loaned_samples: usize,
+    /// The paired event service (same name) a publisher notifies after each send.
+    pub event_max_notifiers: usize,
+    pub event_max_listeners: usize,
+}
+
+/// What [`Publisher`] and [`Subscriber`] open services with.
+pub const SERVICE_SETTINGS: ServiceSettings = ServiceSettings {
+    subscriber_max_borrowed_samples: 2,
+    enable_safe_overflow: true,
+    max_nodes: 24,
+    publisher_max_loaned_samples: 1,
+    event_max_notifiers: 16,
+    event_max_listeners: 16,
+};
+
 /// Longest single sleep inside a wait, so signals and heartbeats are served promptly.
 pub(crate) const WAIT_SLICE: Duration = Duration::from_millis(25);
 
@@ -50,7 +78,7 @@ impl<M: Message> Publisher<M> {
         let svc = pubsub_service::<M>(node, service, &qos)?;
         let port = svc
             .publisher_builder()
-            .max_loaned_samples(1)
+            .max_loaned_samples(SERVICE_SETTINGS.publisher_max_loaned_samples)
             .create()
             .map_err(|e| BusError::service(service, e))?;
         let notifier = event_service(node, service)?
@@ -269,9 +297,9 @@ fn pubsub_service<M: Message>(
         .max_subscribers(qos.max_subscribers)
         .history_size(qos.history)
         .subscriber_max_buffer_size(qos.buffer)
-        .subscriber_max_borrowed_samples(2)
-        .enable_safe_overflow(true)
-        .max_nodes(24)
+        .subscriber_max_borrowed_samples(SERVICE_SETTINGS.subscriber_max_borrowed_samples)
+        .enable_safe_overflow(SERVICE_SETTINGS.enable_safe_overflow)
+        .max_nodes(SERVICE_SETTINGS.max_nodes)
         .open_or_create()
         .map_err(|e| BusError::service(service, e))
 }
@@ -285,9 +313,9 @@ fn event_service(
         .map_err(|e| BusError::service(service, e))?;
     node.service_builder(&name)
         .event()
-        .max_notifiers(16)
-        .max_listeners(16)
-        .max_nodes(24)
+        .max_notifiers(SERVICE_SETTINGS.event_max_notifiers)
+        .max_listeners(SERVICE_SETTINGS.event_max_listeners)
+        .max_nodes(SERVICE_SETTINGS.max_nodes)
         .open_or_create()
         .map_err(|e| BusError::service(service, e))
 }

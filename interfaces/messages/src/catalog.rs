@@ -6,7 +6,7 @@ use crate::NodeKind;
 use crate::common::{
     Header, PathPoseMsg, Pose2Msg, Pose3Msg, RectMsg, TimedCommandMsg, TimedPoseMsg,
 };
-use crate::{FieldLayout, message};
+use crate::message;
 
 /// Organised point clouds: up to 64 rows (elevation channels) x 2048 columns (azimuth).
 pub const MAX_CLOUD_ROWS: usize = 64;
@@ -37,6 +37,8 @@ macro_rules! wire_enum {
         #[repr(u32)]
         pub enum $name { $($(#[$vm])* $v = $n),* }
         impl $name {
+            /// (variant name, wire code), for generated bindings.
+            pub const VARIANTS: &'static [(&'static str, u32)] = &[$((stringify!($v), $n)),*];
             pub fn from_u32(v: u32) -> Option<Self> {
                 match v { $($n => Some(Self::$v),)* _ => None }
             }
@@ -461,39 +463,4 @@ impl GroupMembers {
     pub fn contains(&self, kind: NodeKind) -> bool {
         self.codes().contains(&kind.code())
     }
-}
-
-pub(crate) fn layouts() -> Vec<(&'static str, usize, usize, &'static [FieldLayout])> {
-    macro_rules! l {
-        ($($t:ty),*) => { vec![$((<$t>::TYPE_NAME, core::mem::size_of::<$t>(), core::mem::align_of::<$t>(), <$t>::FIELDS)),*] };
-    }
-    l!(
-        Header,
-        Pose2Msg,
-        Pose3Msg,
-        PathPoseMsg,
-        TimedCommandMsg,
-        TimedPoseMsg,
-        RectMsg,
-        BodyTruth,
-        Tick,
-        TickDone,
-        RobotState,
-        WorldTruth,
-        PointCloud,
-        OccupancyGrid,
-        MapperControl,
-        PlanRequest,
-        PlanResponse,
-        ControllerGoal,
-        Trajectory,
-        ControllerBand,
-        TimedTwistMsg,
-        SimState,
-        SimCommand,
-        Heartbeat,
-        MissionStatus,
-        InstanceInfo,
-        GroupMembers
-    )
 }

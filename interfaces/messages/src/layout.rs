@@ -1,5 +1,7 @@
 //! Layout descriptions and the schema hash over all of them.
 
+use crate::catalog::*;
+use crate::common::*;
 use std::sync::LazyLock;
 
 /// One field of a message: its name, Rust type (as written), offset and size in bytes.
@@ -34,8 +36,52 @@ pub trait Message:
 
 /// (type name, size, align, fields) for every message, in catalogue order.
 pub fn all_layouts() -> Vec<(&'static str, usize, usize, &'static [FieldLayout])> {
-    crate::catalog::layouts()
+    layouts()
 }
+
+/// Lists every message type once: `layouts()` (what the schema hash covers) and
+/// `rust_names()` (what generated bindings call them) follow the same order.
+macro_rules! catalogue {
+    ($($t:ident),* $(,)?) => {
+        fn layouts() -> Vec<(&'static str, usize, usize, &'static [FieldLayout])> {
+            vec![$((<$t>::TYPE_NAME, core::mem::size_of::<$t>(), core::mem::align_of::<$t>(), <$t>::FIELDS)),*]
+        }
+        /// (Rust type name, versioned type name), in the order of `layouts()`.
+        pub(crate) fn rust_names() -> Vec<(&'static str, &'static str)> {
+            vec![$((stringify!($t), <$t>::TYPE_NAME)),*]
+        }
+    };
+}
+
+catalogue!(
+    Header,
+    Pose2Msg,
+    Pose3Msg,
+    PathPoseMsg,
+    TimedCommandMsg,
+    TimedPoseMsg,
+    RectMsg,
+    BodyTruth,
+    Tick,
+    TickDone,
+    RobotState,
+    WorldTruth,
+    PointCloud,
+    OccupancyGrid,
+    MapperControl,
+    PlanRequest,
+    PlanResponse,
+    ControllerGoal,
+    Trajectory,
+    ControllerBand,
+    TimedTwistMsg,
+    SimState,
+    SimCommand,
+    Heartbeat,
+    MissionStatus,
+    InstanceInfo,
+    GroupMembers,
+);
 
 fn fnv1a(hash: &mut u64, bytes: &[u8]) {
     for b in bytes {

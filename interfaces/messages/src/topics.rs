@@ -131,6 +131,10 @@ const EXCHANGE: Qos = Qos {
     buffer: 8,
 };
 
+/// The QoS of a topic a graph declares beyond this table (`[[topic]]` in `graph.toml`,
+/// carrying a catalogue type): state-like, history 1, so a late subscriber sees the newest.
+pub const USER: Qos = STATE;
+
 macro_rules! topics {
     ($($(#[$m:meta])* $konst:ident: $ty:ident = $name:literal, $qos:expr;)*) => {
         $($(#[$m])* pub const $konst: Topic<crate::$ty> = Topic::new($name, $qos);)*
@@ -143,6 +147,10 @@ macro_rules! topics {
 
         /// Every topic, in declaration order.
         pub const ALL: &[TopicInfo] = &[$($konst.info()),*];
+
+        /// The constant names of [`ALL`]'s topics, in the same order (for generated
+        /// bindings: `topics.ROBOT_STATE` in Python too).
+        pub const CONST_NAMES: &[&str] = &[$(stringify!($konst)),*];
 
         /// Calls `v.visit` with every typed topic, in the order of [`ALL`].
         pub fn for_each(v: &mut impl TopicVisitor) {

@@ -14,6 +14,7 @@
 //! - [`inspect_cli`]: `aisle instance`, `topics`, `echo` and `hz`: a running instance seen
 //!   from outside its group.
 //! - [`clean`]: `aisle clean` and the sweep of stale instances before a run.
+//! - [`pygen`], [`gen_cli`]: `aisle gen python`, the Python SDK's layouts from the catalogue.
 //! - [`nodes`]: `aisle node <name>`, which runs one process's node adapter.
 //! - [`records`]: `aisle replay`, `profile` and `render` of MCAP recordings.
 //! - [`replay_check`]: `aisle replay --check`, the mapper and controller against a recording.
@@ -27,10 +28,12 @@ pub mod cli;
 pub mod collisions;
 pub mod exit;
 pub mod inspect_cli;
+pub mod gen_cli;
 pub mod launch;
 pub mod mission;
 pub mod nodes;
 pub mod profile_cli;
+pub mod pygen;
 pub mod records;
 pub mod replay_check;
 pub mod report;

@@ -1,0 +1,183 @@
+//! The Python SDK (`python/`) against the real binary: `aisle gen python --check` on the
+//! checked-in module and on a stale copy, and the README's script, installed with
+//! `pip install ./python` in a fresh venv, printing poses of a running realtime group.
+//!
+//! Needs `python3 -m venv` and a reachable package index: without them the venv test
+//! skips, saying why, unless `AISLE_REQUIRE_PYTHON_SDK=1` (as `.ci/run` sets it).
+
+mod support;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+use support::*;
+
+fn checkout() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .canonicalize()
+        .unwrap()
+}
+
+#[test]
+fn gen_python_check_passes_on_the_checked_in_module_and_names_a_stale_line() {
+    let dir = TestDir::new("pygen");
+    let module = checkout().join("python/aisle/_generated.py");
+    let ok = run(
+        &dir.run_dir(),
+        &[
+            "gen",
+            "python",
+            "--check",
+            "--out",
+            module.to_str().unwrap(),
+        ],
+    );
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let stale = dir.path("stale.py");
+    let text = std::fs::read_to_string(&module).unwrap();
+    std::fs::write(
+        &stale,
+        text.replacen("\"aisle.RobotState.v1\"", "\"aisle.RobotState.v0\"", 1),
+    )
+    .unwrap();
+    let out = run(
+        &dir.run_dir(),
+        &["gen", "python", "--check", "--out", stale.to_str().unwrap()],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("is stale (line ") && err.contains("aisle.RobotState.v0"),
+        "{err}"
+    );
+}
+
+/// Skips (returns None) or fails, as `AISLE_REQUIRE_PYTHON_SDK` says.
+fn unavailable(what: &str) -> Option<PathBuf> {
+    if std::env::var("AISLE_REQUIRE_PYTHON_SDK").as_deref() == Ok("1") {
+        panic!("{what} (AISLE_REQUIRE_PYTHON_SDK=1)");
+    }
+    eprintln!("skipped: {what}");
+    None
+}
+
+/// A fresh venv with `pip install ./python numpy` in `dir`; its python.
+fn venv(dir: &Path) -> Option<PathBuf> {
+    let env = dir.join("venv");
+    let made = Command::new("python3")
+        .args(["-m", "venv"])
+        .arg(&env)
+        .stdin(Stdio::null())
+        .output();
+    match made {
+        Ok(o) if o.status.success() => {}
+        _ => return unavailable("`python3 -m venv` failed: install python3-venv"),
+    }
+    let python = env.join("bin/python");
+    let pip = Command::new(&python)
+        .args([
+            "-m",
+            "pip",
+            "install",
+            "--quiet",
+            "--disable-pip-version-check",
+        ])
+        .arg(checkout().join("python"))
+        .arg("numpy")
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    if !pip.status.success() {
+        let err = String::from_utf8_lossy(&pip.stderr);
+        let tail: Vec<&str> = err.lines().rev().take(3).collect();
+        return unavailable(&format!(
+            "`pip install ./python numpy` failed (no package index?): {}",
+            tail.join(" | ")
+        ));
+    }
+    Some(python)
+}
+
+/// The script between the README's "```python" and "```" after "pip install ./python".
+fn readme_script() -> String {
+    let readme = std::fs::read_to_string(checkout().join("README.md")).unwrap();
+    let at = readme
+        .find("pip install ./python")
+        .expect("README: the SDK section");
+    let start = readme[at..]
+        .find("```python\n")
+        .expect("README: the script")
+        + at
+        + 10;
+    let end = readme[start..].find("```").unwrap() + start;
+    readme[start..end].to_string()
+}
+
+#[test]
+fn the_readme_script_prints_moving_poses_of_a_running_group() {
+    let dir = TestDir::new("pysdk");
+    let Some(python) = venv(&dir.0) else { return };
+    // The SDK's own unit tests (layouts, discovery, NumPy views), in the venv.
+    let unit = Command::new(&python)
+        .args(["-m", "unittest", "-q"])
+        .current_dir(checkout().join("python"))
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    assert!(
+        unit.status.success(),
+        "{}",
+        String::from_utf8_lossy(&unit.stderr)
+    );
+    let script = dir.path("poses.py");
+    std::fs::write(&script, readme_script()).unwrap();
+    let mut group = spawn(&dir.run_dir(), &["run", "--realtime", "--quiet"]);
+    // The instance appears in the run directory once the supervisor claimed it.
+    let start = Instant::now();
+    let root = loop {
+        let found = std::fs::read_dir(dir.run_dir())
+            .unwrap()
+            .flatten()
+            .map(|e| e.path())
+            .find(|p| p.join("aisle-owner").exists());
+        if let Some(r) = found {
+            break r;
+        }
+        assert!(start.elapsed() < Duration::from_secs(20), "no instance");
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let mut cmd = Command::new(&python);
+    cmd.arg(&script).env("AISLE_RUN_DIR", dir.run_dir());
+    if !root.join("aisle-instance.toml").exists() {
+        // A build without discovery files: name the instance.
+        let prefix = root.file_name().unwrap().to_string_lossy().into_owned();
+        cmd.env("AISLE_PREFIX", prefix).env("AISLE_ROOT", &root);
+    }
+    let out = cmd.stdin(Stdio::null()).output().unwrap();
+    // SIGTERM: the supervisor stops its nodes and removes the instance.
+    // SAFETY: kill(2) on our own child's pid; no memory is involved.
+    unsafe { libc::kill(group.id() as i32, libc::SIGTERM) };
+    if wait_exit(&mut group, Duration::from_secs(15)).is_none() {
+        let _ = group.kill();
+        let _ = group.wait();
+    }
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let poses: Vec<&str> = stdout
+        .lines()
+        .filter_map(|l| l.split_once(": ").map(|(_, p)| p))
+        .collect();
+    assert!(poses.len() >= 10, "{stdout}");
+    let mut distinct = poses.clone();
+    distinct.dedup();
+    assert!(distinct.len() > 1, "the robot did not move:\n{stdout}");
+}
