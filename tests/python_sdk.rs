@@ -1,6 +1,8 @@
 //! The Python SDK (`python/`) against the real binary: `aisle gen python --check` on the
 //! checked-in module and on a stale copy, and the README's script, installed with
-//! `pip install ./python` in a fresh venv, printing poses of a running realtime group.
+//! `pip install ./python` in a fresh venv, printing poses of a running realtime group;
+//! the example Python node declared in the graph, in lockstep: waited for, recorded,
+//! repeatable and restarted.
 //!
 //! Needs `python3 -m venv` and a reachable package index: without them the venv test
 //! skips, saying why, unless `AISLE_REQUIRE_PYTHON_SDK=1` (as `.ci/run` sets it).
@@ -180,4 +182,120 @@ fn the_readme_script_prints_moving_poses_of_a_running_group() {
     let mut distinct = poses.clone();
     distinct.dedup();
     assert!(distinct.len() > 1, "the robot did not move:\n{stdout}");
+}
+
+/// The shipped configuration with the example Python node (`pose_republisher`, run by
+/// the venv's `python`) and its user topic added to the graph.
+fn config_with_republisher(dir: &TestDir, python: &Path) -> PathBuf {
+    config_with_graph(
+        dir,
+        &format!(
+            r#"
+[[topic]]
+name = "user/robot_pose"
+type = "{}"
+
+[[node]]
+name = "pose_republisher"
+command = ["{}", "{}"]
+publishes = ["user/robot_pose"]
+subscribes = ["aisle/tick", "aisle/robot_state"]
+acknowledges = "every_tick"
+"#,
+            aisle_messages::RobotState::TYPE_NAME,
+            python.display(),
+            checkout()
+                .join("python/examples/pose_republisher.py")
+                .display()
+        ),
+    )
+}
+
+#[test]
+fn a_python_node_in_the_graph_is_waited_for_recorded_and_restarted() {
+    let dir = TestDir::new("pynode");
+    let Some(python) = venv(&dir.0) else { return };
+    let config = config_with_republisher(&dir, &python);
+    let run_once = |tag: &str, extra: &[&str]| {
+        let (r, record, err) = run_recorded(&dir, &config, tag, extra);
+        assert!(r.success, "{:?}\n{err}", r.failure);
+        assert_eq!(r.collisions, 0);
+        (r, record, err)
+    };
+    let (a, rec_a, _) = run_once("a", &[]);
+    let (b, rec_b, _) = run_once("b", &[]);
+    assert_eq!(a.driven_path, b.driven_path);
+    let code = aisle_messages::external_code("pose_republisher");
+    let (_, acks) = records::same_records(&rec_a, &rec_b, code, a.ticks.saturating_sub(1));
+    assert!(
+        acks + 2 >= a.ticks as usize,
+        "{acks} acknowledgements of {} ticks",
+        a.ticks
+    );
+    // Its output is in the record: one republished pose per tick, equal to the state.
+    let file = aisle_tools::reader::RecordFile::open(&rec_a).unwrap();
+    let poses = file
+        .raw_messages()
+        .filter(|m| {
+            m.as_ref()
+                .is_ok_and(|m| m.channel.topic == "user/robot_pose")
+        })
+        .count();
+    assert!(
+        poses + 2 >= a.ticks as usize,
+        "{poses} poses of {} ticks",
+        a.ticks
+    );
+    let (k, _, err) = run_once("k", &["--kill", "pose_republisher@30"]);
+    assert_eq!(k.restarts, 1, "{err}");
+    readme_script_against_a_replay(&dir, &python, &rec_a);
+}
+
+/// The README's script, unchanged, against `aisle replay` of a record (no supervisor):
+/// it finds the replay's instance and prints the recorded poses.
+fn readme_script_against_a_replay(dir: &TestDir, python: &Path, record: &Path) {
+    let script = dir.path("poses.py");
+    std::fs::write(&script, readme_script()).unwrap();
+    let mut replay = spawn(
+        &dir.run_dir(),
+        &["replay", record.to_str().unwrap(), "--rate", "4", "--loop"],
+    );
+    let errors = stderr_reader(&mut replay);
+    let start = Instant::now();
+    while !std::fs::read_dir(dir.run_dir())
+        .unwrap()
+        .flatten()
+        .any(|e| e.path().join("aisle-instance.toml").exists())
+    {
+        if start.elapsed() > Duration::from_secs(20) || replay.try_wait().unwrap().is_some() {
+            let _ = replay.kill();
+            let _ = replay.wait();
+            panic!("no replay instance: {}", errors.join().unwrap());
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let out = Command::new(python)
+        .arg(&script)
+        .env("AISLE_RUN_DIR", dir.run_dir())
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    // SAFETY: kill(2) on our own child's pid; no memory is involved.
+    unsafe { libc::kill(replay.id() as i32, libc::SIGINT) };
+    if wait_exit(&mut replay, Duration::from_secs(15)).is_none() {
+        let _ = replay.kill();
+        let _ = replay.wait();
+    }
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(
+        stdout.lines().filter(|l| l.starts_with("tick ")).count(),
+        20,
+        "{stdout}"
+    );
+    assert!(run_dir_leftovers(&dir.run_dir()).is_empty());
 }

@@ -4,6 +4,8 @@
 
 #![allow(dead_code)]
 
+pub mod records;
+
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
@@ -241,4 +243,48 @@ pub fn seed_baseline() -> (String, usize) {
         v["driven_path_fnv1a"].as_str().unwrap().to_string(),
         v["driven_path_poses"].as_integer().unwrap() as usize,
     )
+}
+
+/// The shipped configuration copied to `dir/config`, with `extra` appended to its
+/// `graph.toml` (external nodes, user topics).
+pub fn config_with_graph(dir: &TestDir, extra: &str) -> PathBuf {
+    let config = dir.path("config");
+    std::fs::create_dir_all(&config).unwrap();
+    for entry in std::fs::read_dir(config_dir()).unwrap() {
+        let path = entry.unwrap().path();
+        std::fs::copy(&path, config.join(path.file_name().unwrap())).unwrap();
+    }
+    let mut graph = std::fs::read_to_string(config.join("graph.toml")).unwrap();
+    graph.push_str(extra);
+    std::fs::write(config.join("graph.toml"), graph).unwrap();
+    config
+}
+
+/// `aisle run --quiet` with `config`, recorded to `dir/<tag>.mcap` and reported: the
+/// report, the record and stderr. Asserts exit 0 and nothing left in the run directory.
+pub fn run_recorded(
+    dir: &TestDir,
+    config: &Path,
+    tag: &str,
+    extra: &[&str],
+) -> (aisle_supervisor::report::RunReport, PathBuf, String) {
+    let report = dir.path(&format!("{tag}.json"));
+    let record = dir.path(&format!("{tag}.mcap"));
+    let mut args = vec![
+        "run",
+        "--quiet",
+        "--config-dir",
+        config.to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+        "--record",
+        record.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    let out = run(&dir.run_dir(), &args);
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{err}");
+    let text = std::fs::read_to_string(&report).unwrap();
+    assert!(run_dir_leftovers(&dir.run_dir()).is_empty());
+    (serde_json::from_str(&text).unwrap(), record, err)
 }

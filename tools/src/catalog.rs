@@ -40,9 +40,10 @@ impl ServiceInfo {
     }
 }
 
-/// Every service, in the order of `aisle_messages::topics::ALL`.
+/// Every service, in the order of `aisle_messages::topics::all()` (the table, then the
+/// user topics the graph declared).
 pub fn services() -> Vec<ServiceInfo> {
-    topics::ALL.iter().map(ServiceInfo::of).collect()
+    topics::all().iter().map(ServiceInfo::of).collect()
 }
 
 /// The catalogue entry of `service`, if it is one of ours.

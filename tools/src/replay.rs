@@ -142,6 +142,14 @@ pub struct LayoutMismatch {
 
 /// Checks a recorded raw channel against this build.
 pub fn check_channel(file: &std::path::Path, c: &ChannelInfo) -> Result<ServiceInfo, ReplayError> {
+    if service_info(&c.topic).is_none()
+        && let Some(type_name) = c.meta("type_name")
+    {
+        // A user topic of the recorded run's graph (`[[topic]]`): declared as the record
+        // says, its layout then checked below like any other. A name or type that
+        // cannot be a user topic stays unknown.
+        let _ = aisle_messages::user_topics::declare(&c.topic, type_name);
+    }
     let ours = service_info(&c.topic).ok_or_else(|| ReplayError::UnknownTopic {
         file: file.to_path_buf(),
         topic: c.topic.clone(),

@@ -17,6 +17,7 @@ mod grid;
 mod layout;
 mod node_kind;
 pub mod topics;
+pub mod user_topics;
 pub mod wire;
 
 pub use catalog::*;

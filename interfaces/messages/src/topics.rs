@@ -161,8 +161,21 @@ macro_rules! topics {
         pub fn visit(name: &str, v: &mut impl TopicVisitor) -> bool {
             match name {
                 $($name => { v.visit($konst); true })*
-                _ => false,
+                _ => match crate::user_topics::find(name) {
+                    Some(t) => visit_type(t, v),
+                    None => false,
+                },
             }
+        }
+
+        /// Calls `v.visit` with `info`'s name and QoS typed as the catalogue type it
+        /// names; false when no topic of the table carries that type.
+        fn visit_type(info: TopicInfo, v: &mut impl TopicVisitor) -> bool {
+            $(if info.type_name == <crate::$ty>::TYPE_NAME {
+                v.visit(Topic::<crate::$ty>::new(info.name, info.qos));
+                return true;
+            })*
+            false
         }
     };
 }
@@ -197,8 +210,20 @@ topics! {
 }
 
 /// The untyped facts of the topic called `name`.
+/// The untyped facts of the topic called `name`: one of the table, or a user topic a
+/// graph declared in this process (see [`crate::user_topics`]).
 pub fn info(name: &str) -> Option<TopicInfo> {
-    ALL.iter().find(|t| t.name == name).copied()
+    ALL.iter()
+        .find(|t| t.name == name)
+        .copied()
+        .or_else(|| crate::user_topics::find(name))
+}
+
+/// Every topic of the table, then the user topics declared in this process.
+pub fn all() -> Vec<TopicInfo> {
+    let mut all = ALL.to_vec();
+    all.extend(crate::user_topics::declared());
+    all
 }
 
 #[cfg(test)]

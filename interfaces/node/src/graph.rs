@@ -91,6 +91,19 @@ impl NodeDecl {
 #[serde(deny_unknown_fields)]
 struct GraphFile {
     node: Vec<NodeDecl>,
+    /// Topics of the user's beyond the table: a name and a catalogue message type.
+    #[serde(default)]
+    topic: Vec<TopicDecl>,
+}
+
+/// A user topic (`[[topic]]`).
+#[derive(Debug, Clone, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TopicDecl {
+    pub name: String,
+    /// The versioned type name of a catalogue message, e.g. `aisle.RobotState.v1`.
+    #[serde(rename = "type")]
+    pub type_name: String,
 }
 
 /// The checked graph.
@@ -126,6 +139,12 @@ impl Graph {
 
     pub fn parse(path: &Path, text: &str) -> Result<Graph, ConfigError> {
         let file: GraphFile = aisle_config::parse_toml(path, text)?;
+        // Declared before the nodes are checked, which may name them.
+        for (i, t) in file.topic.iter().enumerate() {
+            aisle_messages::user_topics::declare(&t.name, &t.type_name).map_err(|reason| {
+                ConfigError::invalid(path, text, &format!("topic[{i}].name"), reason)
+            })?;
+        }
         let graph = Graph { nodes: file.node };
         graph
             .check()

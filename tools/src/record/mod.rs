@@ -186,11 +186,12 @@ pub fn run_recorder_with(
 /// Every subscriber, with its index in the catalogue.
 type Sources = Vec<(usize, Box<dyn RawSource>)>;
 
-/// One source per topic with its index, in the order of `topics::ALL` (the order of
-/// the writer's raw channels).
+/// One source per topic with its index, in the order of `topics::all()` (the order of
+/// the writer's raw channels; the graph's user topics last).
 fn subscribe_all(bus: &Bus) -> Result<Sources, BusError> {
-    let mut sources = Vec::with_capacity(topics::ALL.len());
-    for (i, t) in topics::ALL.iter().enumerate() {
+    let all = topics::all();
+    let mut sources = Vec::with_capacity(all.len());
+    for (i, t) in all.iter().enumerate() {
         if let Some(source) = open_source(bus, t.name)? {
             sources.push((i, source));
         }
