@@ -85,3 +85,47 @@ fn a_killed_external_node_is_restarted_and_the_mission_goes_on() {
     assert_eq!(r.restarts, 1, "{err}");
     assert_eq!(r.collisions, 0);
 }
+
+/// The controller blind to what the lidar detects (`inputs.avoid_detected = false`):
+/// alone it drives into the unseen pallets on its reference path; with the monitor in
+/// the graph it is stopped in front of them, and nothing is hit.
+#[test]
+fn with_obstacle_avoidance_off_the_monitor_stops_the_robot_before_unseen_pallets() {
+    let dir = TestDir::new("ext-blind");
+    let blind = |config: &Path| {
+        let teb = config.join("teb.toml");
+        let text = std::fs::read_to_string(&teb).unwrap();
+        let text = text.replace("avoid_detected = true", "avoid_detected = false");
+        assert!(
+            text.contains("avoid_detected = false"),
+            "teb.toml has the switch"
+        );
+        std::fs::write(teb, text).unwrap();
+    };
+    let with_monitor = config_with_monitor(&dir);
+    blind(&with_monitor);
+    let alone_dir = TestDir::new("ext-blind-cfg");
+    let alone = support::config_with_graph(&alone_dir, "");
+    blind(&alone);
+    let (_, without) = support::run_report(
+        "ext-blind-alone",
+        &["--config-dir", alone.to_str().unwrap()],
+    );
+    assert!(
+        without.collisions > 0,
+        "the blind controller alone should hit an unseen pallet: {:?}",
+        without.failure
+    );
+    let (out, with) = support::run_report(
+        "ext-blind-monitored",
+        &["--config-dir", with_monitor.to_str().unwrap()],
+    );
+    assert_eq!(
+        with.collisions,
+        0,
+        "{:?} {:?}\n{}",
+        with.failure,
+        with.collision_events,
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

@@ -22,6 +22,10 @@ pub struct MonitorConfig {
     /// m: returns this close outside the footprint are the robot's own (the legs of
     /// the rack it carries, seen with the lidar's noise), as a scanner's self-filter.
     pub self_filter: f64,
+    /// m a robot starting from rest may cover before the monitor sees it move (one
+    /// tick at the speed a first command may ask); a standing robot is held while a
+    /// return in its last direction of travel is within `margin` + this.
+    pub start_step: f64,
     /// m/s; slower than this the robot is standing (no stop asked).
     pub moving_speed: f64,
 }
@@ -36,6 +40,7 @@ impl Default for MonitorConfig {
             min_height: 0.05,
             max_height_above_body: 0.1,
             self_filter: 0.05,
+            start_step: 0.1,
             moving_speed: 0.02,
         }
     }
@@ -50,6 +55,7 @@ impl Validate for MonitorConfig {
         checks::non_negative("min_height", self.min_height)?;
         checks::non_negative("max_height_above_body", self.max_height_above_body)?;
         checks::non_negative("self_filter", self.self_filter)?;
+        checks::non_negative("start_step", self.start_step)?;
         checks::non_negative("moving_speed", self.moving_speed)?;
         Ok(())
     }

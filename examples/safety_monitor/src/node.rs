@@ -2,7 +2,8 @@
 //! scan against the footprint (the carrying one while a rack is on the robot) and, when
 //! the robot would not stop in time, publishes a `SimCommand` Stop stamped with the
 //! scan's tick. The simulator then drives no trajectory of that tick or before. Muted
-//! while the controller drives a straight docking move (`GoalMode::Straight`).
+//! while the controller drives a straight docking move or turns on the spot
+//! (`GoalMode::Straight`, `GoalMode::RotateInPlace`).
 
 use crate::{Corridor, MonitorConfig, StopRule};
 use aisle_bus::{NodeError, Stamp};
@@ -28,6 +29,8 @@ pub struct MonitorStage {
     docking: bool,
     /// The newest velocity the simulator applied (linear, angular).
     twist: Option<[f64; 2]>,
+    /// The sign of the robot's last linear motion (+1 forward, -1 backwards).
+    last_direction: f64,
     /// The monitor's own command ids (the simulator keeps the supervisor's apart).
     next_id: u64,
     /// Stops asked so far.
@@ -62,6 +65,7 @@ impl MonitorStage {
             carrying: corridor(f.carrying.length, f.carrying.width),
             docking: false,
             twist: None,
+            last_direction: 1.0,
             next_id: 1,
             stops: 0,
         }
@@ -112,12 +116,18 @@ impl Stage for MonitorStage {
     fn process(&mut self, cloud: &PointCloud, io: &impl Io) -> Result<Cycle, NodeError> {
         // The velocity the simulator applied at the scan's tick.
         if let Some(goal) = io.latest(topics::CONTROLLER_GOAL)? {
-            self.docking = goal.mode == GoalMode::Straight as u32;
+            // Straight docking moves and turns on the spot: the monitor's field is
+            // muted (neither drives the footprint towards anything ahead of it).
+            self.docking = goal.mode == GoalMode::Straight as u32
+                || goal.mode == GoalMode::RotateInPlace as u32;
         }
         if let Some(rs) = io.latest(topics::ROBOT_STATE)? {
             self.twist = Some(rs.twist);
+            if rs.twist[0].abs() >= self.rule.config.moving_speed {
+                self.last_direction = rs.twist[0].signum();
+            }
         }
-        let Some([speed, turn_rate]) = self.twist.filter(|_| !self.docking) else {
+        let Some(twist) = self.twist.filter(|_| !self.docking) else {
             return Ok(Cycle::done());
         };
         let corridor = if cloud.carried_body >= 0 {
@@ -125,9 +135,13 @@ impl Stage for MonitorStage {
         } else {
             &self.alone
         };
-        let verdict = self
-            .rule
-            .judge(base_frame_points(cloud), speed, turn_rate, corridor);
+        let verdict = self.rule.judge(
+            base_frame_points(cloud),
+            twist,
+            self.last_direction,
+            corridor,
+        );
+        let speed = twist[0];
         if verdict.stop {
             self.stops += 1;
             tracing::info!(

@@ -44,23 +44,23 @@ impl StopRule {
 
     /// Judges one scan. `points` are in the base frame of the robot (x forward, z up
     /// from the floor; NaN for no return), `speed` and `turn_rate` its signed linear and
-    /// angular velocity.
+    /// angular velocity, `last_direction` the sign of its last motion (+1 forward, -1
+    /// backwards): a standing robot is held while a return that way is within `margin`
+    /// + `start_step`, since its next command could cover that before a scan shows it.
     pub fn judge(
         &self,
         points: impl Iterator<Item = [f64; 3]>,
-        speed: f64,
-        turn_rate: f64,
+        [speed, turn_rate]: [f64; 2],
+        last_direction: f64,
         corridor: &Corridor,
     ) -> Verdict {
-        let stopping_distance = self.stopping_distance(speed);
-        if speed.abs() < self.config.moving_speed {
-            return Verdict {
-                nearest: None,
-                stopping_distance,
-                stop: false,
-            };
-        }
-        let arc = Arc::of(speed, turn_rate);
+        let standing = speed.abs() < self.config.moving_speed;
+        let (stopping_distance, arc) = if standing {
+            let d = self.config.margin + self.config.start_step;
+            (d, Arc::of(last_direction, 0.0))
+        } else {
+            (self.stopping_distance(speed), Arc::of(speed, turn_rate))
+        };
         let nearest = points
             .filter(|p| p.iter().all(|v| v.is_finite()))
             .filter(|p| p[2] > corridor.min_height && p[2] <= corridor.max_height)
@@ -159,11 +159,21 @@ mod tests {
         assert!((r.stopping_distance(0.5) - 0.325).abs() < 1e-12);
         let near = [[0.25 + 0.3, 0.1, 0.2]];
         let far = [[0.25 + 0.4, 0.1, 0.2]];
-        let v = r.judge(near.into_iter(), 0.5, 0.0, &corridor());
+        let v = r.judge(near.into_iter(), [0.5, 0.0], 1.0, &corridor());
         assert!(v.stop && (v.nearest.unwrap() - 0.3).abs() < 1e-12, "{v:?}");
-        assert!(!r.judge(far.into_iter(), 0.5, 0.0, &corridor()).stop);
-        // Standing still: nothing to stop.
-        assert!(!r.judge(near.into_iter(), 0.0, 0.0, &corridor()).stop);
+        assert!(!r.judge(far.into_iter(), [0.5, 0.0], 1.0, &corridor()).stop);
+        // Standing: held only while a return is within margin + start_step (0.2 m) in
+        // the direction it last moved.
+        assert!(!r.judge(near.into_iter(), [0.0, 0.0], 1.0, &corridor()).stop);
+        let close = [[0.25 + 0.15, 0.0, 0.2]];
+        assert!(
+            r.judge(close.into_iter(), [0.0, 0.0], 1.0, &corridor())
+                .stop
+        );
+        assert!(
+            !r.judge(close.into_iter(), [0.0, 0.0], -1.0, &corridor())
+                .stop
+        );
     }
 
     #[test]
@@ -177,10 +187,10 @@ mod tests {
             [0.2, 0.1, 0.2],  // inside the footprint (a carried rack's leg)
             [f64::NAN, f64::NAN, f64::NAN],
         ];
-        let v = r.judge(ignored.into_iter(), 0.5, 0.0, &corridor());
+        let v = r.judge(ignored.into_iter(), [0.5, 0.0], 1.0, &corridor());
         assert_eq!(v.nearest, None, "{v:?}");
         // Reversing, the return behind counts.
-        let v = r.judge(ignored.into_iter(), -0.5, 0.0, &corridor());
+        let v = r.judge(ignored.into_iter(), [-0.5, 0.0], -1.0, &corridor());
         assert!(v.stop && (v.nearest.unwrap() - 0.15).abs() < 1e-12, "{v:?}");
     }
 
@@ -190,31 +200,33 @@ mod tests {
         // Turning left on a 1 m radius: a return a quarter turn ahead on the arc, at
         // (1, 1), is pi/2 m along it; the same return is off a straight corridor.
         let on_arc = [[1.0, 1.0, 0.2]];
-        let v = r.judge(on_arc.into_iter(), 0.5, 0.5, &corridor());
+        let v = r.judge(on_arc.into_iter(), [0.5, 0.5], 1.0, &corridor());
         let expected = std::f64::consts::FRAC_PI_2 - 0.25;
         assert!((v.nearest.unwrap() - expected).abs() < 1e-9, "{v:?}");
         assert_eq!(
-            r.judge(on_arc.into_iter(), 0.5, 0.0, &corridor()).nearest,
+            r.judge(on_arc.into_iter(), [0.5, 0.0], 1.0, &corridor())
+                .nearest,
             None
         );
         // Turning right, the mirror image; reversing while turning left (w > 0, v < 0)
         // sweeps behind and to the right.
         let right = [[1.0, -1.0, 0.2]];
         assert!(
-            r.judge(right.into_iter(), 0.5, -0.5, &corridor())
+            r.judge(right.into_iter(), [0.5, -0.5], 1.0, &corridor())
                 .nearest
                 .is_some()
         );
         let behind_right = [[-1.0, -1.0, 0.2]];
         assert!(
-            r.judge(behind_right.into_iter(), -0.5, 0.5, &corridor())
+            r.judge(behind_right.into_iter(), [-0.5, 0.5], -1.0, &corridor())
                 .nearest
                 .is_some()
         );
         // A straight wall ahead of a turning robot, beyond its arc: not in the way.
         let wall = [[1.2, -0.6, 0.2]];
         assert_eq!(
-            r.judge(wall.into_iter(), 0.5, 0.5, &corridor()).nearest,
+            r.judge(wall.into_iter(), [0.5, 0.5], 1.0, &corridor())
+                .nearest,
             None
         );
     }

@@ -72,6 +72,11 @@ impl GridCopy {
         self.cells.extend(other.cells.iter().map(|&c| f(c)));
     }
 
+    /// Passes every cell through `f`, in place.
+    pub fn map_in_place(&mut self, f: impl Fn(u8) -> u8) {
+        self.cells.iter_mut().for_each(|c| *c = f(*c));
+    }
+
     /// No cells: nothing was copied yet (or the message held none).
     pub fn is_empty(&self) -> bool {
         self.cells.is_empty()

@@ -187,11 +187,18 @@ pub struct InputsConfig {
     /// Seconds: a local map or robot state older than this (sim time in lockstep, also
     /// wall time in realtime) is refused and the robot commanded to stop.
     pub max_age: f64,
+    /// false: the local map's detected cells (lidar obstacles the static map does not
+    /// have) are taken as free, so the controller drives through them. A test switch:
+    /// it leaves obstacle avoidance to something else (an external safety monitor).
+    pub avoid_detected: bool,
 }
 
 impl Default for InputsConfig {
     fn default() -> Self {
-        Self { max_age: 0.3 }
+        Self {
+            max_age: 0.3,
+            avoid_detected: true,
+        }
     }
 }
 

@@ -95,6 +95,8 @@ pub struct ControllerStage {
     state_made: Produced,
     /// `inputs.max_age` of teb.toml, ns.
     max_age_ns: u64,
+    /// `inputs.avoid_detected` of teb.toml.
+    avoid_detected: bool,
     /// The last tick stopped for stale inputs (log once per episode).
     stale: bool,
 }
@@ -106,6 +108,7 @@ impl ControllerStage {
         let cfg = aisle_config::load::<TebConfig>(&path)
             .map_err(|e| NodeError::setup("teb_controller", e))?;
         let max_age_ns = (cfg.inputs.max_age * 1e9).round() as u64;
+        let avoid_detected = cfg.inputs.avoid_detected;
         let teb = TebController::new(cfg)
             .map_err(|e| NodeError::setup(format!("teb_controller: {}", path.display()), e))?;
         Ok(ControllerStage {
@@ -122,6 +125,7 @@ impl ControllerStage {
             map_made: Produced::default(),
             state_made: Produced::default(),
             max_age_ns,
+            avoid_detected,
             stale: false,
         })
     }
@@ -148,6 +152,11 @@ impl ControllerStage {
                     self.map_made = Produced::of(&m.header);
                 }
             }
+        }
+        if !self.avoid_detected {
+            use aisle_geometry::OCCUPIED_DETECTED;
+            self.map
+                .map_in_place(|c| if c == OCCUPIED_DETECTED { 0 } else { c });
         }
         Ok(())
     }
