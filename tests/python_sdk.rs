@@ -162,12 +162,7 @@ fn the_readme_script_prints_moving_poses_of_a_running_group() {
     }
     let out = cmd.stdin(Stdio::null()).output().unwrap();
     // SIGTERM: the supervisor stops its nodes and removes the instance.
-    // SAFETY: kill(2) on our own child's pid; no memory is involved.
-    unsafe { libc::kill(group.id() as i32, libc::SIGTERM) };
-    if wait_exit(&mut group, Duration::from_secs(15)).is_none() {
-        let _ = group.kill();
-        let _ = group.wait();
-    }
+    signal_and_reap(&mut group, libc::SIGTERM, Duration::from_secs(15));
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         out.status.success(),
@@ -280,12 +275,7 @@ fn readme_script_against_a_replay(dir: &TestDir, python: &Path, record: &Path) {
         .stdin(Stdio::null())
         .output()
         .unwrap();
-    // SAFETY: kill(2) on our own child's pid; no memory is involved.
-    unsafe { libc::kill(replay.id() as i32, libc::SIGINT) };
-    if wait_exit(&mut replay, Duration::from_secs(15)).is_none() {
-        let _ = replay.kill();
-        let _ = replay.wait();
-    }
+    signal_and_reap(&mut replay, libc::SIGINT, Duration::from_secs(15));
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         out.status.success(),

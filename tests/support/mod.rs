@@ -288,3 +288,13 @@ pub fn run_recorded(
     assert!(run_dir_leftovers(&dir.run_dir()).is_empty());
     (serde_json::from_str(&text).unwrap(), record, err)
 }
+
+/// Sends `signal` to `child` and reaps it, SIGKILLing it after `grace`.
+pub fn signal_and_reap(child: &mut Child, signal: i32, grace: Duration) {
+    // SAFETY: kill(2) on our own child's pid; no memory is involved.
+    unsafe { libc::kill(child.id() as i32, signal) };
+    if wait_exit(child, grace).is_none() {
+        let _ = child.kill();
+        let _ = child.wait();
+    }
+}

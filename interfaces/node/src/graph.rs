@@ -58,6 +58,10 @@ pub struct NodeDecl {
     /// environment (see [`crate::external`]).
     #[serde(default)]
     pub command: Option<Vec<String>>,
+    /// The kind, resolved once when the graph is loaded (an external node's name is
+    /// interned then), so per-tick lookups need no lock.
+    #[serde(skip)]
+    resolved: Option<NodeKind>,
 }
 
 fn yes() -> bool {
@@ -67,6 +71,10 @@ fn yes() -> bool {
 impl NodeDecl {
     /// The node kind this declaration names.
     pub fn kind(&self) -> NodeKind {
+        self.resolved.unwrap_or_else(|| self.resolve())
+    }
+
+    fn resolve(&self) -> NodeKind {
         if self.command.is_some() {
             NodeKind::external(&self.name)
         } else {
@@ -145,14 +153,15 @@ impl Graph {
                 ConfigError::invalid(path, text, &format!("topic[{i}].name"), reason)
             })?;
         }
-        let graph = Graph { nodes: file.node };
+        let mut graph = Graph { nodes: file.node };
         graph
             .check()
             .map_err(|(key, reason)| ConfigError::invalid(path, text, &key, reason))?;
-        // Known from now on by name and code (a code read from a message can be named).
-        graph.external().for_each(|n| {
-            n.kind();
-        });
+        // External nodes are known from now on by name and code (a code read from a
+        // message can be named).
+        for n in &mut graph.nodes {
+            n.resolved = Some(n.resolve());
+        }
         Ok(graph)
     }
 
