@@ -2,14 +2,13 @@
 //! the goal to every cell, on a grid that may be coarser than the map.
 //!
 //! A coarse cell is blocked only when every map cell in it is certainly blocked for the
-//! robot's centre (an occupied cell centre lies within the inscribed radius of any pose
-//! there), so a free continuous path always maps to a connected chain of unblocked cells:
+//! robot's centre (an occupied cell's square reaches into the inscribed circle of any
+//! pose there), so a free continuous path always maps to a connected chain of unblocked cells:
 //! "unreached from the goal" proves that no path exists. Distances use a bucket queue
 //! (Dial's algorithm) with integer steps 5 (side) and 7 (diagonal), which slightly
 //! underestimates the diagonal. Knows nothing of headings or motions.
 
 use crate::distance_map::DistanceMap;
-use std::f64::consts::FRAC_1_SQRT_2;
 
 const SIDE: u32 = 5;
 const DIAG: u32 = 7;
@@ -121,7 +120,15 @@ impl GridHeuristic {
         self.cell = dm.resolution * f as f64;
         self.blocked.clear();
         self.blocked.resize(self.stride * (self.height + 2), true);
-        let limit = r_in - dm.resolution * FRAC_1_SQRT_2 - 1e-9;
+        // For any robot centre q in a map cell c and an occupied cell o (equal squares),
+        // the farthest q is from o's square is exactly |c - o|: the far corner of c is
+        // half a cell farther, o's near edge half a cell nearer, on each axis. So a centre
+        // distance under r_in puts o's square inside the inscribed circle of every pose
+        // in c: c is blocked for sure. (Subtracting half a diagonal here, as before,
+        // left narrow holes in a detected wall open to the heuristic that the body
+        // cannot pass, and the search flooded the space before them.) The 1e-6 absorbs
+        // the f32 rounding of the stored distances.
+        let limit = r_in - 1e-6;
         for y in 0..dm.height {
             let row = &dm.dist[y * dm.width..(y + 1) * dm.width];
             let base = (y / f + 1) * self.stride + 1;

@@ -470,12 +470,8 @@ fn validate_path_finds_a_collision_the_planner_would_not_make() {
     assert!(check_turning_radius(&kink, 0.1).is_ok());
 }
 
-/// A box whose only door (0.65 m) is wide enough for the heuristic's centre test but
-/// too narrow for the robot's grown rectangle: the heuristic cannot prove enclosure, so
-/// the search itself must end, with "no path" from inside and within the budget from
-/// outside.
-#[test]
-fn walled_in_goal_behind_a_too_narrow_door_ends_within_the_budget() {
+/// A box with one door in its right wall, from `door.0` to `door.1` (y, m).
+fn boxed_map(door: (f64, f64)) -> aisle_geometry::GridMap {
     let mut map = seed_map::seed_map(20.0);
     rasterise(
         &mut map,
@@ -483,42 +479,56 @@ fn walled_in_goal_behind_a_too_narrow_door_ends_within_the_budget() {
             Rect::new(-1.1, 3.9, 1.1, 4.0),
             Rect::new(-1.1, 6.0, 1.1, 6.1),
             Rect::new(-1.1, 3.9, -1.0, 6.1),
-            Rect::new(1.0, 3.9, 1.1, 4.675),
-            Rect::new(1.0, 5.325, 1.1, 6.1),
+            Rect::new(1.0, 3.9, 1.1, door.0),
+            Rect::new(1.0, door.1, 1.1, 6.1),
         ],
     );
+    map
+}
+
+/// A door narrower than the inscribed circle (margin included) of the robot: the
+/// heuristic proves the enclosure before any expansion, from inside and from outside.
+/// (It once left such doors open, and a search before a detected wall with small holes
+/// in it flooded its whole side until the budget ran out.)
+#[test]
+fn a_door_narrower_than_the_inscribed_circle_is_proven_closed() {
+    // 0.6 m of free cells; the robot needs 0.43 + 2 x 0.1 = 0.63 m.
+    let map = boxed_map((4.675, 5.325));
     let mut planner = Planner::new(PlannerConfig::default()).unwrap();
     let inside = Pose2::new(0.0, 5.0, 0.0);
     let outside = Pose2::new(0.0, 0.0, 0.0);
+    for (start, goal) in [(inside, outside), (outside, inside)] {
+        let req = PlanRequest {
+            start,
+            goal,
+            footprint: ROBOT,
+            margin: ROBOT_MARGIN,
+            max_expansions: BUDGET,
+        };
+        let e = planner.plan(&req, &map.view()).unwrap_err();
+        assert_eq!(e.kind, PlanErrorKind::NoPath);
+        assert_eq!(e.stats.expansions, 0, "{e:?}");
+    }
+}
+
+/// The same box with a door one cell wider than the robot needs: the path goes through.
+#[test]
+fn a_door_just_wide_enough_is_passed() {
+    // 0.7 m of free cells (4.65 .. 5.35).
+    let map = boxed_map((4.625, 5.375));
+    let mut planner = Planner::new(PlannerConfig::default()).unwrap();
     let req = PlanRequest {
-        start: inside,
-        goal: outside,
+        start: Pose2::new(0.0, 5.0, 0.0),
+        goal: Pose2::new(0.0, 0.0, 0.0),
         footprint: ROBOT,
         margin: ROBOT_MARGIN,
         max_expansions: BUDGET,
     };
-    let e = planner.plan(&req, &map.view()).unwrap_err();
-    assert_eq!(e.kind, PlanErrorKind::NoPath);
+    let plan = planner.plan(&req, &map.view()).unwrap();
     assert!(
-        e.stats.expansions > 10,
-        "the heuristic alone must not decide: {e:?}"
+        plan.path.iter().any(|p| p.pose.x > 1.1),
+        "leaves through the door"
     );
-    let budget = 5_000;
-    let req = PlanRequest {
-        start: outside,
-        goal: inside,
-        max_expansions: budget,
-        ..req
-    };
-    let e = planner.plan(&req, &map.view()).unwrap_err();
-    assert!(
-        matches!(
-            e.kind,
-            PlanErrorKind::NoPath | PlanErrorKind::BudgetExhausted
-        ),
-        "{e:?}"
-    );
-    assert!(e.stats.expansions <= budget);
 }
 
 fn scene() -> aisle_config::scene::Scene {

@@ -113,8 +113,11 @@ pub struct Mission {
     /// Whether the current stage is getting anywhere.
     progress: progress::Progress,
     /// Fraction of the margin the leg's plans keep: below 1 once the leg had to back
-    /// out of the margin or squeeze through a gap; back to 1 with the next leg.
+    /// out of the margin or squeeze through a gap; back to 1 with the next leg, or
+    /// once the robot is clear of the spot (`backoff.rs`).
     margin_scale: f64,
+    /// Where the robot began driving a reduced-margin plan (`backoff.rs`).
+    backed_off_at: Option<Pose2>,
     /// While set, the leg is on its straight departure to this pose.
     departure: Option<Pose2>,
     /// The controller has a reference path for the current leg.
@@ -143,6 +146,7 @@ impl Mission {
             stage: Stage::Path,
             progress: progress::Progress::default(),
             margin_scale: 1.0,
+            backed_off_at: None,
             departure: None,
             has_reference: false,
             failure: None,
@@ -234,7 +238,7 @@ impl Mission {
         self.has_reference = false;
         self.stage = Stage::Path;
         self.progress.reset(now_s);
-        self.margin_scale = 1.0;
+        self.reset_margin();
         let mut actions = Vec::new();
         if let Some(body) = self.spec().carry.clone() {
             self.begin_carrying(&body, pose);
@@ -257,8 +261,12 @@ impl Mission {
                 .depart
                 .map(|d| pose.compose(&Pose2::new(d, 0.0, 0.0)));
             // As in the seed, the first reference path of a leg is planned on the static
-            // map; replans use the lidar detections too.
-            actions.push(self.plan_action(pose, false));
+            // map; replans use the lidar detections too. A leg that starts under a body
+            // is the exception: its first move, straight out of one side, is committed
+            // before any replan could change it, so the side is chosen with what the
+            // lidar has seen around the body.
+            let undocking = self.under.is_some() && self.departure.is_none();
+            actions.push(self.plan_action(pose, undocking));
         }
         actions
     }
@@ -278,6 +286,7 @@ impl Mission {
                 if self.margin_scale < 1.0 {
                     tracing::info!("t = {now_s:.1} s: backing off with a reduced margin");
                 }
+                self.note_backed_off(pose);
                 self.phase = Phase::Driving;
                 self.has_reference = true;
                 self.reference_paths.push((self.leg, planned.path.clone()));
@@ -300,6 +309,8 @@ impl Mission {
                 vec![self.plan_action(pose, true)]
             }
             Err(PlanFailure { why, .. }) => {
+                // The anchor stays: a reduced-margin plan the controller still drives
+                // is replaced once the robot is clear (`backoff.rs`).
                 self.margin_scale = 1.0;
                 self.plan_failures += 1;
                 // Without any reference the controller has nothing to drive: a first plan
@@ -416,6 +427,10 @@ impl Mission {
             );
             return self.fail(now_s, pose, why);
         }
+        // Every tick, not every controller step: at speed, half a second is a metre.
+        if self.phase == Phase::Driving {
+            return self.restore_margin(now_s, pose).unwrap_or_default();
+        }
         Vec::new()
     }
 
@@ -475,6 +490,7 @@ impl Mission {
     }
 }
 
+mod backoff;
 mod docking;
 mod progress;
 

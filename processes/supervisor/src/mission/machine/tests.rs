@@ -417,3 +417,31 @@ fn a_start_inside_the_margin_backs_off_with_a_smaller_margin_then_fails() {
     assert_eq!(m.on_plan(0.0, p, Err(blocked())), vec![Action::Halt]);
     assert!(m.failure().unwrap().contains("start is in collision"));
 }
+
+#[test]
+fn a_reduced_margin_lasts_until_the_robot_is_clear_of_the_spot() {
+    let mut m = mission();
+    let p = Pose2::default();
+    m.start_leg(0.0, p);
+    let blocked = PlanFailure {
+        why: "the start is in collision".into(),
+        margin_bound: true,
+    };
+    m.on_plan(0.0, p, Err(blocked));
+    let a = m.on_plan(0.1, p, Ok(Planned::plain(path())));
+    assert!(
+        matches!(a[0], Action::Follow { margin, .. } if (margin - 0.05).abs() < 1e-12),
+        "{a:?}"
+    );
+    // Still near where the backing off began: the reduced plan is driven on.
+    assert!(m.on_tick(1.0, Pose2::new(0.6, 0.0, 0.0)).is_empty());
+    // Clear of it: a plan with the full margin.
+    let a = m.on_tick(1.1, Pose2::new(1.0, 0.0, 0.0));
+    assert!(
+        matches!(a[..], [Action::Plan { margin, use_detections: true, .. }] if (margin - 0.1).abs() < 1e-12),
+        "{a:?}"
+    );
+    // Driven with the full margin, the leg asks for nothing more.
+    m.on_plan(1.2, Pose2::new(1.0, 0.0, 0.0), Ok(Planned::plain(path())));
+    assert!(m.on_tick(3.0, Pose2::new(2.5, 0.0, 0.0)).is_empty());
+}

@@ -1,0 +1,138 @@
+//! Replays a record's plan requests with this build's planner, each on the global map the
+//! mission had when it asked (the newest one stamped at or before the request), through
+//! the planner's own stage (`PlannerStage` on an in-memory `Io`), and prints each
+//! request's recorded and replayed outcome side by side:
+//!
+//! ```text
+//! cargo run --release -p aisle-global-planner --example replay_requests -- \
+//!     run.mcap [--config config] [--only ID]
+//! ```
+//!
+//! What a planner change does to the requests a mission really made (a sweep's failure
+//! record, say), without running the mission again. Writes nothing.
+
+use std::mem::offset_of;
+use std::path::PathBuf;
+
+use aisle_global_planner::node::PlannerStage;
+use aisle_messages::{
+    Header, Message, OccupancyGrid, PlanRequest, PlanResponse, PlanStatus, topics,
+};
+use aisle_node::Stage;
+use aisle_node::testing::MemIo;
+use aisle_tools::aligned::AlignedBuf;
+use aisle_tools::{FileMessage, RecordFile};
+
+fn stamp(m: &FileMessage) -> u64 {
+    let at = offset_of!(Header, stamp_ns);
+    m.data
+        .get(at..at + 8)
+        .and_then(|b| b.try_into().ok())
+        .map_or(0, u64::from_le_bytes)
+}
+
+fn copy_into<M: Message + Copy>(dst: &mut M, m: &FileMessage) -> Result<(), String> {
+    let buf = AlignedBuf::from_bytes(&m.data);
+    let src = buf
+        .view::<M>()
+        .ok_or_else(|| format!("a payload is not a {}", M::TYPE_NAME))?;
+    *dst = *src;
+    Ok(())
+}
+
+fn status_name(s: u32) -> String {
+    PlanStatus::from_u32(s).map_or(format!("status {s}"), |s| format!("{s:?}"))
+}
+
+fn main() -> Result<(), String> {
+    let usage = "usage: replay_requests RECORD [--config DIR] [--only ID]";
+    let mut args = std::env::args().skip(1);
+    let (mut record, mut config, mut only) = (None, PathBuf::from("config"), None);
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "--config" => config = args.next().ok_or(usage)?.into(),
+            "--only" => {
+                let v = args.next().ok_or(usage)?;
+                only = Some(v.parse::<u64>().map_err(|_| format!("--only {v:?}"))?);
+            }
+            _ if a.starts_with("--") => return Err(format!("unknown option {a}; {usage}")),
+            _ => record = Some(PathBuf::from(a)),
+        }
+    }
+    let record = record.ok_or(usage)?;
+    let file = RecordFile::open(&record).map_err(|e| e.to_string())?;
+    let (mut maps, mut requests, mut responses) = (Vec::new(), Vec::new(), Vec::new());
+    for m in file.raw_messages() {
+        let m = m.map_err(|e| e.to_string())?;
+        match m.channel.topic.as_str() {
+            t if t == topics::GLOBAL_MAP.name => maps.push(m),
+            t if t == topics::PLAN_REQUEST.name => requests.push(m),
+            t if t == topics::PLAN_RESPONSE.name => responses.push(m),
+            _ => {}
+        }
+    }
+    let mut stage = PlannerStage::new(&config).map_err(|e| e.to_string())?;
+    println!(
+        "request  t [s]  recorded (status, expansions)  replayed (status, expansions, length, ms)"
+    );
+    for req_msg in &requests {
+        let buf = AlignedBuf::from_bytes(&req_msg.data);
+        let req = *buf
+            .view::<PlanRequest>()
+            .ok_or("a payload is not a PlanRequest")?;
+        if only.is_some_and(|id| id != req.request_id) {
+            continue;
+        }
+        let t = stamp(req_msg);
+        let pose =
+            |p: aisle_messages::Pose2Msg| format!("({:.3}, {:.3}, {:.4})", p.x, p.y, p.theta);
+        println!(
+            "        start {} goal {} footprint {:.3} x {:.3} margin {:.3} detections {} dock {}",
+            pose(req.start),
+            pose(req.goal),
+            req.footprint_length,
+            req.footprint_width,
+            req.margin,
+            req.use_detections,
+            req.dock,
+        );
+        let map = maps
+            .iter()
+            .rev()
+            .find(|m| stamp(m) <= t)
+            .ok_or("no map before a request")?;
+        let io = MemIo::new();
+        let mut err = Ok(());
+        io.push(topics::GLOBAL_MAP, |m: &mut OccupancyGrid| {
+            err = copy_into(m, map)
+        });
+        err?;
+        stage.process(&req, &io).map_err(|e| e.to_string())?;
+        let recorded = responses.iter().find_map(|r| {
+            let b = AlignedBuf::from_bytes(&r.data);
+            let r = b.view::<PlanResponse>()?;
+            (r.request_id == req.request_id).then_some((r.status, r.expansions))
+        });
+        let replayed = io
+            .published(topics::PLAN_RESPONSE, 0, |r: &PlanResponse| {
+                (
+                    r.status,
+                    r.expansions,
+                    r.path_length,
+                    r.solve_ns as f64 / 1e6,
+                )
+            })
+            .ok_or("no response")?;
+        println!(
+            "{:>7} {:>6.1}  {:<30} {} {} {:.2} m {:.1} ms",
+            req.request_id,
+            t as f64 / 1e9,
+            recorded.map_or("-".into(), |(s, e)| format!("{} {e}", status_name(s))),
+            status_name(replayed.0),
+            replayed.1,
+            replayed.2,
+            replayed.3,
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,48 @@
+//! How long a reduced margin lasts. A leg plans with less than its full margin only to
+//! get out of a tight spot: the robot stands inside the margin, or the only way on is a
+//! gap that needs less of it. The reduced margin also governs the controller's band, so
+//! kept for the rest of the leg it would take the robot past whatever it meets later
+//! (unseen pallets, the rack it is about to pass) within a few centimetres of contact.
+//! So once the robot is clear of where the reduced-margin plan began, the leg plans with
+//! the full margin again; where that fails, it backs off once more from there.
+//!
+//! Part of the pure state machine: no bus, no clocks.
+
+use super::{Mission, Phase, Stage};
+use crate::mission::events::Action;
+use aisle_geometry::Pose2;
+
+/// How far, m, the robot gets from where a reduced-margin plan started before the leg
+/// asks for a plan with the full margin again: about two robot lengths, enough to leave
+/// the spot that needed the reduction, short enough that nothing met later is passed
+/// with it.
+const RESTORE_MARGIN_AFTER_M: f64 = 1.0;
+
+impl Mission {
+    /// A plan with a reduced margin is about to be driven from `pose`.
+    pub(super) fn note_backed_off(&mut self, pose: Pose2) {
+        self.backed_off_at = (self.margin_scale < 1.0).then_some(pose);
+    }
+
+    /// The full margin again, from now on.
+    pub(super) fn reset_margin(&mut self) {
+        self.margin_scale = 1.0;
+        self.backed_off_at = None;
+    }
+
+    /// The plan request with the full margin once the robot is clear of where the
+    /// reduced-margin plan began; `None` while it is not, or during a straight move
+    /// (those keep their own clearance).
+    pub(super) fn restore_margin(&mut self, now_s: f64, pose: Pose2) -> Option<Vec<Action>> {
+        let from = self.backed_off_at?;
+        if !matches!(self.stage, Stage::Path | Stage::ToDock { .. })
+            || pose.distance(&from) < RESTORE_MARGIN_AFTER_M
+        {
+            return None;
+        }
+        self.reset_margin();
+        tracing::info!("t = {now_s:.1} s: clear of the tight spot: planning with the full margin");
+        self.phase = Phase::Planning;
+        Some(vec![self.plan_action(pose, true)])
+    }
+}
