@@ -60,6 +60,11 @@ pub struct PlannerConfig {
     pub smoothing_iterations: u32,
     /// How often (in expansions) the optional stop callback is asked.
     pub stop_check_interval: u32,
+    /// The expansion budget grows with the problem: a search may expand at least this
+    /// many nodes per grid cell reachable from the goal (the obstacle heuristic's cells,
+    /// `heuristic_resolution` apart), when that is more than the request's budget. 0
+    /// keeps the request's budget alone.
+    pub expansions_per_reachable_cell: f64,
     /// Docking: straight run (m) between a rack's side and the robot at the pose where
     /// the straight move under it starts (or the move out of it ends): room to line up.
     pub dock_run_in: f64,
@@ -93,6 +98,7 @@ impl Default for PlannerConfig {
             smoothing_weight_smooth: 0.3,
             smoothing_iterations: 200,
             stop_check_interval: 256,
+            expansions_per_reachable_cell: 4.0,
             dock_run_in: 0.5,
             dock_clearance: 0.03,
         }
@@ -154,6 +160,12 @@ impl Validate for PlannerConfig {
             100_000,
         )?;
         in_range("stop_check_interval", self.stop_check_interval, 1, u32::MAX)?;
+        in_range(
+            "expansions_per_reachable_cell",
+            self.expansions_per_reachable_cell,
+            0.0,
+            1000.0,
+        )?;
         positive("dock_run_in", self.dock_run_in)?;
         at_least("dock_clearance", self.dock_clearance, 0.0)?;
         Ok(())

@@ -19,7 +19,8 @@ use aisle_messages::{
 use aisle_node::{Cycle, Io, RunContext, Stage};
 use std::time::Duration;
 
-/// Budget when a request leaves `max_expansions` at 0.
+/// Budget when a request leaves `max_expansions` at 0; the planner raises it with the
+/// reachable area (`expansions_per_reachable_cell`).
 pub const DEFAULT_MAX_EXPANSIONS: u32 = 100_000;
 /// Wall-clock bound when a request leaves `timeout_ms` at 0.
 pub const DEFAULT_TIMEOUT_MS: u32 = 5_000;

@@ -40,7 +40,8 @@ pub struct PlanRequest {
     pub footprint: Footprint,
     /// Clearance added on every side of the footprint (m).
     pub margin: f64,
-    /// Maximum number of node expansions before giving up (deterministic bound).
+    /// Maximum number of node expansions before giving up (deterministic bound); more
+    /// where the reachable area calls for it (`expansions_per_reachable_cell`).
     pub max_expansions: u32,
 }
 
@@ -158,6 +159,12 @@ impl Planner {
             .filter(|_| reached)
             .ok_or(PlanErrorKind::NoPath)?;
 
+        // A fixed budget that suits a 20 x 30 m hall gives up on a detour in a larger one:
+        // the budget grows with the cells the goal can be reached from.
+        let scaled = cfg.expansions_per_reachable_cell * f64::from(stats.heuristic_cells);
+        let budget = req
+            .max_expansions
+            .max(scaled.min(f64::from(u32::MAX)) as u32);
         let mut search = Search {
             cfg,
             model,
@@ -169,7 +176,7 @@ impl Planner {
             stats: &mut *stats,
         };
         search.open_start(start, h_start);
-        let (last, shot) = search.run(req.max_expansions, should_stop)?;
+        let (last, shot) = search.run(budget, should_stop)?;
 
         let buf = &mut self.buf;
         stats.path_cost = buf.nodes[last].g + shot.cost;

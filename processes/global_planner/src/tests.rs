@@ -296,6 +296,8 @@ fn budget_and_stop_callback_end_the_search() {
     let map = seed_map::seed_map(10.0);
     let mut planner = Planner::new(PlannerConfig {
         stop_check_interval: 4,
+        // The request's budget alone.
+        expansions_per_reachable_cell: 0.0,
         ..Default::default()
     })
     .unwrap();
@@ -581,3 +583,25 @@ fn seed_legs_plan_on_the_scene_static_map() {
 }
 
 mod golden;
+
+/// The budget grows with the area the goal can be reached from: a request whose own
+/// budget is far too small for its detour still finds the path, and the expansions it
+/// took stay within the scaled budget.
+#[test]
+fn the_budget_scales_with_the_reachable_area() {
+    let map = seed_map::seed_map(10.0);
+    let req = PlanRequest {
+        max_expansions: 3,
+        ..hard_request()
+    };
+    let mut planner = Planner::new(PlannerConfig::default()).unwrap();
+    let plan = planner.plan(&req, &map.view()).unwrap();
+    let cfg = PlannerConfig::default();
+    let scaled = cfg.expansions_per_reachable_cell * f64::from(plan.stats.heuristic_cells);
+    assert!(
+        f64::from(plan.stats.expansions) <= scaled,
+        "{:?}",
+        plan.stats
+    );
+    assert!(plan.stats.expansions > 3);
+}
