@@ -4,7 +4,8 @@
 //! commands and grids with the source record, which this test decodes with the
 //! project's own reader into `expected.json` (and the clouds' and grids' bulk into two
 //! binary files). Skips, saying why, when `rosbags` is not installed, unless
-//! `AISLE_REQUIRE_PYTHON_SDK=1` (as `.ci/run` sets it: there it fails).
+//! `AISLE_REQUIRE_PYTHON_SDK=1` (as `.ci/run` sets it: there it fails). Also: bad input
+//! (missing, not MCAP, not a record, output = input, output not writable) ends in exit 2.
 
 mod support;
 
@@ -193,4 +194,50 @@ fn write_expected(record: &Path, dir: &TestDir) -> std::path::PathBuf {
     let path = dir.path("expected.json");
     std::fs::write(&path, expected.to_string()).unwrap();
     path
+}
+
+/// Bad input ends in exit 2 and one line naming the file, and leaves no output behind.
+#[test]
+fn export_refuses_what_it_cannot_convert() {
+    let dir = TestDir::new("ros2-bad");
+    let record = dir.path("synthetic.mcap");
+    let f = std::fs::File::create(&record).unwrap();
+    aisle_tools::synthetic::write_synthetic(f, 10, aisle_tools::WriterOptions::default()).unwrap();
+    let bag = dir.path("bag.mcap");
+    let ok = support::run(&dir.run_dir(), &["export", "--ros2", p(&record), p(&bag)]);
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let text = dir.path("notes.txt");
+    std::fs::write(&text, "not an mcap").unwrap();
+    let cases: [(&Path, &Path, &str); 5] = [
+        (
+            &dir.path("missing.mcap"),
+            &dir.path("o.mcap"),
+            "missing.mcap",
+        ),
+        (&text, &dir.path("o.mcap"), "is not an MCAP file"),
+        (&bag, &dir.path("o.mcap"), "is not an aisle record"),
+        (&record, &record, "is the record itself"),
+        (&record, &dir.path("no/such/dir/o.mcap"), "cannot write"),
+    ];
+    for (input, output, says) in cases {
+        let out = support::run(&dir.run_dir(), &["export", "--ros2", p(input), p(output)]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{input:?} -> {output:?}: {err}");
+        assert!(
+            err.starts_with("error: ") && err.contains(says),
+            "{says}: {err}"
+        );
+    }
+    assert!(!dir.path("o.mcap").exists());
+    // Without --ros2 there is no format to write: a usage error.
+    let out = support::run(&dir.run_dir(), &["export", p(&record), p(&bag)]);
+    assert_eq!(out.status.code(), Some(2));
+}
+
+fn p(path: &Path) -> &str {
+    path.to_str().unwrap()
 }

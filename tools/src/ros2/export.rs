@@ -22,6 +22,8 @@ pub enum ExportError {
          (make one with `aisle run --record`)"
     )]
     NotARecord { path: PathBuf },
+    #[error("nothing of {path} could be read: {reason}")]
+    Unreadable { path: PathBuf, reason: String },
     #[error("the output {path} is the record itself: choose another output file")]
     SameFile { path: PathBuf },
     #[error("cannot write {path}: {reason}")]
@@ -49,32 +51,42 @@ pub fn export_ros2(input: &Path, output: &Path) -> Result<ExportSummary, ExportE
             path: output.to_path_buf(),
         });
     }
+    if output.is_dir() {
+        return Err(ExportError::Output {
+            path: output.to_path_buf(),
+            reason: "it is a directory: name the bag file".into(),
+        });
+    }
     let record = RecordFile::open(input)?;
     let name = output
         .file_name()
         .map_or_else(|| "bag".into(), |n| n.to_string_lossy().into_owned());
     let partial = output.with_file_name(format!(".{name}.partial-{}", std::process::id()));
-    let out_err = |reason: String| ExportError::Output {
-        path: output.to_path_buf(),
-        reason,
-    };
-    let file = std::fs::File::create(&partial).map_err(|e| out_err(e.to_string()))?;
-    let result = write_bag(&record, std::io::BufWriter::new(file)).and_then(|summary| {
-        if summary.read == 0 {
-            return Err(ExportError::NotARecord {
-                path: input.to_path_buf(),
-            });
-        }
-        std::fs::rename(&partial, output).map_err(|e| out_err(e.to_string()))?;
-        Ok(summary)
-    });
+    let result = std::fs::File::create(&partial)
+        .map_err(|e| e.to_string())
+        .and_then(|f| write_bag(&record, std::io::BufWriter::new(f)))
+        .map_err(|reason| ExportError::Output {
+            path: output.to_path_buf(),
+            reason,
+        })
+        .and_then(|summary| {
+            if summary.read == 0 {
+                let path = input.to_path_buf();
+                return Err(match summary.damaged {
+                    Some(reason) => ExportError::Unreadable { path, reason },
+                    None => ExportError::NotARecord { path },
+                });
+            }
+            std::fs::rename(&partial, output).map_err(|e| ExportError::Output {
+                path: output.to_path_buf(),
+                reason: e.to_string(),
+            })?;
+            Ok(summary)
+        });
     if result.is_err() {
         let _ = std::fs::remove_file(&partial);
     }
-    result.map_err(|e| match e {
-        ExportError::Output { reason, .. } => out_err(reason),
-        e => e,
-    })
+    result
 }
 
 /// True when `output` names the same file as `input` (by device and inode, so links
@@ -87,10 +99,11 @@ fn same_file(input: &Path, output: &Path) -> bool {
     }
 }
 
+/// Writes the bag; an error is the reason the output could not be written.
 fn write_bag(
     record: &RecordFile,
     w: impl std::io::Write + std::io::Seek,
-) -> Result<ExportSummary, ExportError> {
+) -> Result<ExportSummary, String> {
     let mut bag = Bag::new(w)?;
     let mut conv = RosConverter::default();
     let mut summary = ExportSummary::default();
@@ -108,7 +121,7 @@ fn write_bag(
         buf.set(&m.data);
         out.clear();
         conv.convert(&m.channel.topic, &buf, &mut out)
-            .map_err(|e| bag.error(format!("cannot encode a message: {e}")))?;
+            .map_err(|e| format!("cannot encode a message: {e}"))?;
         for r in &out {
             bag.write(r, m.log_time)?;
         }
@@ -130,8 +143,8 @@ struct Bag<W: std::io::Write + std::io::Seek> {
 }
 
 impl<W: std::io::Write + std::io::Seek> Bag<W> {
-    fn new(w: W) -> Result<Self, ExportError> {
-        let err = |e: mcap::McapError| Self::error_of(e.to_string());
+    fn new(w: W) -> Result<Self, String> {
+        let err = |e: mcap::McapError| e.to_string();
         let mut mcap = mcap::WriteOptions::new()
             .profile("ros2")
             .library(format!("aisle-tools {}", env!("CARGO_PKG_VERSION")))
@@ -145,8 +158,8 @@ impl<W: std::io::Write + std::io::Seek> Bag<W> {
             let schema = match schemas.get(ty) {
                 Some(&id) => id,
                 None => {
-                    let text = schemas::definition(ty)
-                        .ok_or_else(|| Self::error_of(format!("no definition of {ty}")))?;
+                    let text =
+                        schemas::definition(ty).ok_or_else(|| format!("no definition of {ty}"))?;
                     let id = mcap
                         .add_schema(ty, "ros2msg", text.as_bytes())
                         .map_err(err)?;
@@ -171,7 +184,7 @@ impl<W: std::io::Write + std::io::Seek> Bag<W> {
         })
     }
 
-    fn write(&mut self, m: &RosMessage, log_time: u64) -> Result<(), ExportError> {
+    fn write(&mut self, m: &RosMessage, log_time: u64) -> Result<(), String> {
         let i = m.topic.index();
         self.counts[i] += 1;
         let header = mcap::records::MessageHeader {
@@ -182,27 +195,12 @@ impl<W: std::io::Write + std::io::Seek> Bag<W> {
         };
         self.mcap
             .write_to_known_channel(&header, &m.data)
-            .map_err(|e| self.error(e.to_string()))
+            .map_err(|e| e.to_string())
     }
 
-    fn finish(mut self) -> Result<(), ExportError> {
-        self.mcap
-            .finish()
-            .map_err(|e| Self::error_of(e.to_string()))?;
-        let mut w = self.mcap.into_inner();
-        w.flush().map_err(|e| Self::error_of(e.to_string()))
-    }
-
-    fn error(&self, reason: String) -> ExportError {
-        Self::error_of(reason)
-    }
-
-    /// The path is filled in by `export_ros2`, which knows it.
-    fn error_of(reason: String) -> ExportError {
-        ExportError::Output {
-            path: PathBuf::new(),
-            reason,
-        }
+    fn finish(mut self) -> Result<(), String> {
+        self.mcap.finish().map_err(|e| e.to_string())?;
+        self.mcap.into_inner().flush().map_err(|e| e.to_string())
     }
 }
 

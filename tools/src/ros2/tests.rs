@@ -165,6 +165,8 @@ fn a_synthetic_record_becomes_a_ros2_bag() {
     assert!(matches!(e, ExportError::SameFile { .. }), "{e}");
     let e = export_ros2(&rec, &dir.join("missing/out.mcap")).unwrap_err();
     assert!(e.to_string().contains("missing/out.mcap"), "{e}");
+    let e = export_ros2(&rec, &dir).unwrap_err();
+    assert!(e.to_string().contains("is a directory"), "{e}");
     let e = export_ros2(&dir.join("nope.mcap"), &again).unwrap_err();
     assert!(e.to_string().contains("nope.mcap"), "{e}");
     let left: Vec<_> = std::fs::read_dir(&dir)
