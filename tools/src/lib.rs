@@ -12,6 +12,7 @@
 //! - [`profile`]: those figures (and output latencies) from a recorded file;
 //! - [`inspect`]: a running instance seen from outside, topic by topic (`aisle topics`,
 //!   `echo`, `hz`): services, samples as text, rates;
+//! - [`ros2`]: a record as a ROS 2 bag (`aisle export --ros2`);
 //! - [`render`]: a top-view PNG of a run; [`animate`]: a self-contained HTML page that
 //!   plays the run back.
 //!
@@ -38,6 +39,7 @@ pub mod record;
 pub mod render;
 pub mod replay;
 mod replay_own;
+pub mod ros2;
 pub mod tick_batches;
 pub mod viewer;
 pub mod writer;

@@ -118,6 +118,8 @@ arguments, unwritable output directory)."
     Inspect(crate::inspect_cli::InspectCommand),
     #[command(flatten)]
     Gen(crate::gen_cli::GenCommand),
+    #[command(flatten)]
+    Export(crate::export_cli::ExportCommand),
     /// Run one node of a process group (started by `aisle run`, not by hand).
     #[command(hide = true)]
     Node(NodeCmd),
@@ -348,6 +350,7 @@ pub fn main() -> ExitCode {
         Command::Clean { dry_run } => crate::clean::clean(dry_run),
         Command::Inspect(c) => crate::inspect_cli::main(c),
         Command::Gen(c) => crate::gen_cli::main(c),
+        Command::Export(c) => crate::export_cli::main(c),
         Command::Scenario {
             command:
                 ScenarioCommand::Generate {

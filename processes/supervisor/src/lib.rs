@@ -16,6 +16,7 @@
 //! - [`clean`]: `aisle clean` and the sweep of stale instances before a run.
 //! - [`pygen`], [`gen_cli`]: `aisle gen python`, the Python SDK's layouts from the catalogue.
 //! - [`nodes`]: `aisle node <name>`, which runs one process's node adapter.
+//! - [`export_cli`]: `aisle export --ros2`, a record as a ROS 2 bag.
 //! - [`records`]: `aisle replay`, `profile` and `render` of MCAP recordings.
 //! - [`replay_check`]: `aisle replay --check`, the mapper and controller against a recording.
 //! - [`scenario`]: `aisle scenario generate`, config directories varied by seed and family.
@@ -27,6 +28,7 @@ pub mod clean;
 pub mod cli;
 pub mod collisions;
 pub mod exit;
+pub mod export_cli;
 pub mod gen_cli;
 pub mod inspect_cli;
 pub mod launch;
