@@ -1,4 +1,4 @@
-//! A top view of a recorded run as a PNG, drawn with `plotters` in the embedded DejaVu
+//! A top view of a recorded run as a PNG (or an SVG), drawn with `plotters` in the embedded DejaVu
 //! font: a title (record, seed, outcome), axes in metres with a metre grid, the final
 //! global map (static cells dark, cells the lidar detected red), the static scene, the
 //! racks and the unseen pallets and boxes (a body that moved at its start and, after it
@@ -149,74 +149,138 @@ pub fn render_file(
     render_layers(file, opts, layers).map(|(p, s, _)| (p, s))
 }
 
+/// A record read and laid out, ready to draw on any backend.
+struct Prepared {
+    run: run::Run,
+    layout: draw::Layout,
+    title: [String; 2],
+    entries: Vec<(Swatch, String)>,
+    layers: Layers,
+}
+
+impl Prepared {
+    fn new(file: &RecordFile, opts: &RenderOptions, layers: Layers) -> Result<Self, RenderError> {
+        if !(opts.pixels_per_metre.is_finite() && opts.pixels_per_metre > 0.0) {
+            return Err(RenderError::InvalidScale(opts.pixels_per_metre));
+        }
+        let run = run::collect(file, opts);
+        let extent = draw::extent(&run).ok_or_else(|| RenderError::Empty {
+            path: file.path().display().to_string(),
+        })?;
+        let name = file
+            .path()
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        crate::fonts::ensure();
+        Ok(Self {
+            layout: draw::Layout::new(extent, opts.pixels_per_metre)?,
+            title: draw::title(&run, &name),
+            entries: legend::legend_entries(&run, layers),
+            run,
+            layers,
+        })
+    }
+
+    /// Draws onto `root`; returns the world-to-pixel transform.
+    fn paint<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, plotters::coord::Shift>,
+    ) -> Result<[f64; 6], RenderError> {
+        let p = &self.run;
+        let t = draw::draw(
+            root,
+            &self.layout,
+            p,
+            self.layers,
+            &self.title,
+            &self.entries,
+        )
+        .map_err(|e| RenderError::Plot(e.to_string()))?;
+        root.present()
+            .map_err(|e| RenderError::Plot(e.to_string()))?;
+        Ok(t)
+    }
+
+    fn summary(&self) -> RenderSummary {
+        let run = &self.run;
+        let detected_cells = run.map.as_ref().map_or(0, |g| {
+            g.cells[..g.width as usize * g.height as usize]
+                .iter()
+                .filter(|&&v| v == 2)
+                .count()
+        });
+        RenderSummary {
+            width: self.layout.width,
+            height: self.layout.height,
+            driven_poses: run.driven.len(),
+            reference_paths: run.references.len(),
+            bands: run.bands.len(),
+            detected_cells,
+            legs: run.legs.clone(),
+            legend: self.entries.iter().map(|e| e.1.clone()).collect(),
+            title: self.title.join("\n"),
+            truncated: run.truncated.clone(),
+        }
+    }
+}
+
 /// Draws the given layers of a recorded file.
 pub(crate) fn render_layers(
     file: &RecordFile,
     opts: &RenderOptions,
     layers: Layers,
 ) -> Result<(Picture, RenderSummary, run::Run), RenderError> {
-    if !(opts.pixels_per_metre.is_finite() && opts.pixels_per_metre > 0.0) {
-        return Err(RenderError::InvalidScale(opts.pixels_per_metre));
-    }
-    let run = run::collect(file, opts);
-    let extent = draw::extent(&run).ok_or_else(|| RenderError::Empty {
-        path: file.path().display().to_string(),
-    })?;
-    let name = file
-        .path()
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let layout = draw::Layout::new(extent, opts.pixels_per_metre)?;
-    let (width, height) = (layout.width, layout.height);
+    let prepared = Prepared::new(file, opts, layers)?;
+    let (width, height) = (prepared.layout.width, prepared.layout.height);
     let mut rgb = vec![255u8; width as usize * height as usize * 3];
-    crate::fonts::ensure();
-    let title = draw::title(&run, &name);
-    let entries = legend::legend_entries(&run, layers);
     let transform = {
         let root = BitMapBackend::with_buffer(&mut rgb, (width, height)).into_drawing_area();
-        let t = draw::draw(&root, &layout, &run, layers, &title, &entries)
-            .map_err(|e| RenderError::Plot(e.to_string()))?;
-        root.present()
-            .map_err(|e| RenderError::Plot(e.to_string()))?;
-        t
+        prepared.paint(&root)?
     };
-    let detected_cells = run.map.as_ref().map_or(0, |g| {
-        g.cells[..g.width as usize * g.height as usize]
-            .iter()
-            .filter(|&&v| v == 2)
-            .count()
-    });
-    let summary = RenderSummary {
-        width,
-        height,
-        driven_poses: run.driven.len(),
-        reference_paths: run.references.len(),
-        bands: run.bands.len(),
-        detected_cells,
-        legs: run.legs.clone(),
-        legend: entries.into_iter().map(|e| e.1).collect(),
-        title: title.join("\n"),
-        truncated: run.truncated.clone(),
-    };
+    let summary = prepared.summary();
     let picture = Picture {
         width,
         height,
         rgb,
         transform,
     };
-    Ok((picture, summary, run))
+    Ok((picture, summary, prepared.run))
 }
 
-/// Renders a recorded file to a PNG.
-pub fn render(
-    path: &Path,
-    out_png: &Path,
+/// Draws a recorded file as an SVG document (the same picture, in vectors).
+pub fn render_svg(
+    file: &RecordFile,
     opts: &RenderOptions,
-) -> Result<RenderSummary, RenderError> {
+) -> Result<(String, RenderSummary), RenderError> {
+    let layers = Layers {
+        driven: opts.driven,
+        bands: opts.band_every > 0,
+        movables: true,
+    };
+    let prepared = Prepared::new(file, opts, layers)?;
+    let mut svg = String::new();
+    {
+        let size = (prepared.layout.width, prepared.layout.height);
+        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
+        prepared.paint(&root)?;
+    }
+    Ok((svg, prepared.summary()))
+}
+
+/// Renders a recorded file to a PNG, or to an SVG when `out` ends in `.svg`.
+pub fn render(path: &Path, out: &Path, opts: &RenderOptions) -> Result<RenderSummary, RenderError> {
     let file = RecordFile::open(path)?;
+    if out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("svg"))
+    {
+        let (svg, summary) = render_svg(&file, opts)?;
+        write_output(out, svg.as_bytes())?;
+        return Ok(summary);
+    }
     let (picture, summary) = render_file(&file, opts)?;
-    write_output(out_png, &picture.png()?)?;
+    write_output(out, &picture.png()?)?;
     Ok(summary)
 }
 

@@ -264,3 +264,18 @@ fn rendering_is_deterministic_and_refuses_bad_scales() {
         Err(RenderError::BadSize { .. })
     ));
 }
+
+#[test]
+fn the_svg_is_the_same_picture_in_vectors() {
+    let (svg, summary) = render_svg(&carry_file(), &RenderOptions::default()).unwrap();
+    assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+    assert!(svg.contains(&format!("width=\"{}\"", summary.width)));
+    for text in [
+        "1: to pick",
+        "unseen pallets/boxes",
+        "rack_a, set down at 5.0 s",
+        "x (m)",
+    ] {
+        assert!(svg.contains(text), "{text}");
+    }
+}
