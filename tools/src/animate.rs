@@ -1,18 +1,20 @@
 //! A recorded run as one self-contained HTML page that plays it back: the top view of
-//! [`crate::render`] without the driven path as the background (an embedded PNG), and
-//! over it, tick by tick, the robot's footprint, the movable bodies where ground truth
-//! had them (a carried rack moves with the robot), the driven trail coloured by mission
-//! segment and the controller's newest band. Play, pause, speed and a time slider; no
-//! network, no script library.
+//! [`crate::render`] without the moving parts as the background (an embedded PNG: title,
+//! axes, map, static scene, references, legend with the legs' names, scale bar), and over
+//! it, tick by tick, the robot's footprint, the movable bodies where ground truth had
+//! them at that time (a carried rack moves with the robot; a dropped one appears at its
+//! destination only once set down), the driven trail coloured by mission leg and the
+//! controller's newest band. Play, pause, speed and a time slider; the page fits the
+//! window, opens at the time its URL names (`run.html#t=20`) and keeps that hash up to
+//! date while it plays or seeks. No network, no script library.
 //!
 //! Reads the raw channels of the file; knows the message layouts, not the processes.
 
 use crate::reader::RecordFile;
-use crate::render::{RenderError, RenderOptions, SEGMENT_COLORS, render_file, write_output};
+use crate::render::run::{BodyKind, MovableBody};
+use crate::render::{LEG_COLORS, Layers, RenderError, RenderOptions, render_layers, write_output};
 use aisle_messages::topics::names as s;
-use aisle_messages::{
-    ControllerBand, MAX_BODIES, MAX_COMMANDS, MissionStatus, RobotState, WorldTruth,
-};
+use aisle_messages::{ControllerBand, MAX_COMMANDS, MissionStatus, RobotState};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -29,16 +31,12 @@ struct Frame {
     segment: u32,
     /// Index into the band list of the newest band at this tick.
     band: Option<usize>,
-    /// Index into the body-pose list of the movable bodies at this tick.
-    bodies: Option<usize>,
 }
 
 #[derive(Default)]
 struct Playback {
     frames: Vec<Frame>,
     bands: Vec<Vec<[f64; 2]>>,
-    /// Each entry: (x, y, theta, length, width) of every movable body.
-    body_sets: Vec<Vec<[f64; 5]>>,
     truncated: Option<String>,
 }
 
@@ -55,67 +53,42 @@ fn collect(file: &RecordFile) -> Playback {
     let mut pb = Playback::default();
     let mut segment = 0;
     let mut band = None;
-    let mut bodies: Option<usize> = None;
-    let truncated = file.for_each_payload(|topic, buf| {
-        match topic {
-            s::MISSION_STATUS => {
-                if let Some(st) = buf.view::<MissionStatus>() {
-                    segment = st.segment;
-                }
+    let truncated = file.for_each_payload(|topic, buf| match topic {
+        s::MISSION_STATUS => {
+            if let Some(st) = buf.view::<MissionStatus>() {
+                segment = st.segment;
             }
-            s::CONTROLLER_BAND => {
-                if let Some(b) = buf.view::<ControllerBand>() {
-                    let n = (b.len as usize).min(MAX_COMMANDS);
-                    let pts: Vec<[f64; 2]> = b.poses[..n]
-                        .iter()
-                        .filter(|p| p.x.is_finite() && p.y.is_finite())
-                        .map(|p| [p.x, p.y])
-                        .collect();
-                    band = (!pts.is_empty()).then(|| {
-                        pb.bands.push(pts);
-                        pb.bands.len() - 1
-                    });
-                }
-            }
-            s::WORLD_TRUTH => {
-                if let Some(w) = buf.view::<WorldTruth>() {
-                    let n = (w.len as usize).min(MAX_BODIES);
-                    let set: Vec<[f64; 5]> = w.bodies[..n]
-                        .iter()
-                        .filter(|b| b.is_static == 0)
-                        .map(|b| [b.pose.x, b.pose.y, b.pose.theta, b.size[0], b.size[1]])
-                        .filter(|v| v.iter().all(|x| x.is_finite() && x.abs() < 1e5))
-                        .collect();
-                    if bodies.is_none_or(|i| pb.body_sets[i] != set) {
-                        pb.body_sets.push(set);
-                        bodies = Some(pb.body_sets.len() - 1);
-                    }
-                    // The simulator publishes a tick's state before its ground truth.
-                    if let Some(f) = pb.frames.last_mut()
-                        && f.tick == w.header.tick
-                    {
-                        f.bodies = bodies;
-                    }
-                }
-            }
-            s::ROBOT_STATE => {
-                if let Some(r) = buf.view::<RobotState>()
-                    && [r.pose.x, r.pose.y, r.pose.theta]
-                        .iter()
-                        .all(|v| v.is_finite() && v.abs() < 1e5)
-                {
-                    pb.frames.push(Frame {
-                        tick: r.header.tick,
-                        t: r.header.stamp_ns as f64 * 1e-9,
-                        pose: [r.pose.x, r.pose.y, r.pose.theta],
-                        segment,
-                        band,
-                        bodies,
-                    });
-                }
-            }
-            _ => {}
         }
+        s::CONTROLLER_BAND => {
+            if let Some(b) = buf.view::<ControllerBand>() {
+                let n = (b.len as usize).min(MAX_COMMANDS);
+                let pts: Vec<[f64; 2]> = b.poses[..n]
+                    .iter()
+                    .filter(|p| p.x.is_finite() && p.y.is_finite())
+                    .map(|p| [p.x, p.y])
+                    .collect();
+                band = (!pts.is_empty()).then(|| {
+                    pb.bands.push(pts);
+                    pb.bands.len() - 1
+                });
+            }
+        }
+        s::ROBOT_STATE => {
+            if let Some(r) = buf.view::<RobotState>()
+                && [r.pose.x, r.pose.y, r.pose.theta]
+                    .iter()
+                    .all(|v| v.is_finite() && v.abs() < 1e5)
+            {
+                pb.frames.push(Frame {
+                    tick: r.header.tick,
+                    t: r.header.stamp_ns as f64 * 1e-9,
+                    pose: [r.pose.x, r.pose.y, r.pose.theta],
+                    segment,
+                    band,
+                });
+            }
+        }
+        _ => {}
     });
     pb.truncated = truncated;
     pb
@@ -163,19 +136,21 @@ fn json_list<T>(
     }
 }
 
-fn data_json(pb: &Playback) -> String {
+/// The page's data: frames `[t, x, y, theta, leg, band]`, bands (flat x, y lists), the
+/// movable bodies (`k` 1 for a rack, size, poses `[t, x, y, theta]` from that time on),
+/// the legs' names and colours, the robot's size.
+fn data_json(pb: &Playback, bodies: &[MovableBody], legs: &[String]) -> String {
     let mut j = String::from("{\"frames\":[");
     json_list(&mut j, &pb.frames, |j, f| {
         let _ = write!(
             j,
-            "[{},{},{},{},{},{},{}]",
+            "[{},{},{},{},{},{}]",
             num(f.t),
             num(f.pose[0]),
             num(f.pose[1]),
             num(f.pose[2]),
             f.segment,
             f.band.map_or(-1, |b| b as i64),
-            f.bodies.map_or(-1, |b| b as i64)
         );
     });
     j.push_str("],\"bands\":[");
@@ -187,23 +162,33 @@ fn data_json(pb: &Playback) -> String {
         j.push(']');
     });
     j.push_str("],\"bodies\":[");
-    json_list(&mut j, &pb.body_sets, |j, set| {
-        j.push('[');
-        json_list(j, set, |j, b| {
+    json_list(&mut j, bodies, |j, b| {
+        let rack = u8::from(b.kind == BodyKind::Rack);
+        let _ = write!(
+            j,
+            "{{\"k\":{rack},\"l\":{},\"w\":{},\"p\":[",
+            num(b.length),
+            num(b.width)
+        );
+        json_list(j, &b.poses, |j, p| {
             let _ = write!(
                 j,
-                "[{},{},{},{},{}]",
-                num(b[0]),
-                num(b[1]),
-                num(b[2]),
-                num(b[3]),
-                num(b[4])
+                "[{},{},{},{}]",
+                num(p.t),
+                num(p.x),
+                num(p.y),
+                num(p.theta)
             );
         });
-        j.push(']');
+        j.push_str("]}");
+    });
+    j.push_str("],\"legs\":[");
+    // serde_json quotes and escapes the names; a string cannot fail to serialise.
+    json_list(&mut j, legs, |j, n| {
+        j.push_str(&serde_json::to_string(n).unwrap_or_default());
     });
     j.push_str("],\"colors\":[");
-    json_list(&mut j, &SEGMENT_COLORS, |j, c| {
+    json_list(&mut j, &LEG_COLORS, |j, c| {
         let _ = write!(j, "\"rgb({},{},{})\"", c[0], c[1], c[2]);
     });
     let _ = write!(
@@ -212,47 +197,11 @@ fn data_json(pb: &Playback) -> String {
         num(ROBOT_LENGTH),
         num(ROBOT_WIDTH)
     );
-    j
+    // Inside a <script>, "</" would end it early.
+    j.replace("</", "<\\/")
 }
 
-const PAGE: &str = r##"<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>aisle run: __TITLE__</title>
-<style>body{font:14px sans-serif;margin:12px}canvas{border:1px solid #ccc;display:block}
-#bar{margin:8px 0;display:flex;gap:8px;align-items:center}#t{width:60vw}</style></head>
-<body><div id="bar"><button id="play">pause</button>
-<select id="speed"><option>1</option><option selected>4</option><option>10</option></select>x
-<input id="t" type="range" min="0" value="0"><span id="clock"></span></div>
-<canvas id="view"></canvas>
-<script>
-const D=__DATA__;const T=__TRANSFORM__;
-const img=new Image();img.src="data:image/png;base64,__PNG__";
-const cv=document.getElementById("view"),cx=cv.getContext("2d");
-const slider=document.getElementById("t"),clock=document.getElementById("clock");
-const F=D.frames;slider.max=Math.max(F.length-1,0);
-let k=0,playing=true,last=null;
-function px(x,y){return [T[0]+x*T[2],T[1]-y*T[2]];}
-function rect(x,y,th,l,w,fill,stroke){const c=Math.cos(th),s=Math.sin(th);cx.beginPath();
-for(const [a,b] of [[l/2,w/2],[-l/2,w/2],[-l/2,-w/2],[l/2,-w/2]]){const p=px(x+a*c-b*s,y+a*s+b*c);cx.lineTo(p[0],p[1]);}
-cx.closePath();if(fill){cx.fillStyle=fill;cx.fill();}if(stroke){cx.strokeStyle=stroke;cx.lineWidth=2;cx.stroke();}}
-function draw(){cx.drawImage(img,0,0);if(!F.length)return;const f=F[k];
-if(f[6]>=0)for(const b of D.bodies[f[6]])rect(b[0],b[1],b[2],b[3],b[4],"rgba(160,100,40,0.55)",null);
-cx.lineWidth=3;for(let i=1;i<=k;i++){const a=px(F[i-1][1],F[i-1][2]),b=px(F[i][1],F[i][2]);
-cx.strokeStyle=D.colors[F[i][4]%D.colors.length];cx.beginPath();cx.moveTo(a[0],a[1]);cx.lineTo(b[0],b[1]);cx.stroke();}
-if(f[5]>=0){const b=D.bands[f[5]];cx.strokeStyle="rgb(40,170,60)";cx.fillStyle="rgb(40,170,60)";cx.lineWidth=1.5;cx.beginPath();
-for(let i=0;i<b.length;i+=2){const p=px(b[i],b[i+1]);cx.lineTo(p[0],p[1]);}cx.stroke();
-for(let i=0;i<b.length;i+=2){const p=px(b[i],b[i+1]);cx.beginPath();cx.arc(p[0],p[1],2,0,7);cx.fill();}}
-rect(f[1],f[2],f[3],D.robot[0],D.robot[1],"rgba(20,20,20,0.8)","#000");
-const h=px(f[1]+0.35*Math.cos(f[3]),f[2]+0.35*Math.sin(f[3])),o=px(f[1],f[2]);
-cx.strokeStyle="#fff";cx.lineWidth=2;cx.beginPath();cx.moveTo(o[0],o[1]);cx.lineTo(h[0],h[1]);cx.stroke();
-clock.textContent="t = "+f[0].toFixed(1)+" s  (segment "+(f[4]+1)+")";slider.value=k;}
-function tick(now){if(playing&&F.length){if(last!==null){const dt=(now-last)/1000*Number(document.getElementById("speed").value);
-const target=F[k][0]+dt;while(k<F.length-1&&F[k+1][0]<=target)k++;if(k>=F.length-1)playing=false;}last=now;}else last=null;
-draw();document.getElementById("play").textContent=playing?"pause":"play";requestAnimationFrame(tick);}
-document.getElementById("play").onclick=()=>{if(k>=F.length-1)k=0;playing=!playing;};
-slider.oninput=()=>{k=Number(slider.value);playing=false;};
-img.onload=()=>{cv.width=img.width;cv.height=img.height;requestAnimationFrame(tick);};
-</script></body></html>
-"##;
+const PAGE: &str = include_str!("animate_page.html");
 
 /// Writes the playback page of a recorded file.
 pub fn animate(
@@ -261,27 +210,28 @@ pub fn animate(
     opts: &RenderOptions,
 ) -> Result<AnimationSummary, RenderError> {
     let file = RecordFile::open(path)?;
-    let background = RenderOptions {
-        band_every: 0,
+    let background = Layers {
         driven: false,
-        ..*opts
+        bands: false,
+        movables: false,
     };
-    let (canvas, _) = render_file(&file, &background)?;
-    let png = canvas.png()?;
+    let (picture, summary, run) = render_layers(&file, opts, background)?;
+    let png = picture.png()?;
     let pb = collect(&file);
-    let (ox, oy) = canvas.to_px(0.0, 0.0);
-    let transform = format!("[{ox},{oy},{}]", opts.pixels_per_metre);
-    let title: String = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
+    let t = picture.transform;
+    let transform = format!("[{},{},{},{},{},{}]", t[0], t[1], t[2], t[3], t[4], t[5]);
+    let title: String = summary
+        .title
+        .lines()
+        .next()
         .unwrap_or_default()
         .chars()
-        .filter(|c| c.is_alphanumeric() || "._- ".contains(*c))
+        .filter(|c| !"<>&\"'".contains(*c))
         .collect();
     let html = PAGE
         .replace("__TITLE__", &title)
         .replace("__TRANSFORM__", &transform)
-        .replace("__DATA__", &data_json(&pb))
+        .replace("__DATA__", &data_json(&pb, &run.movables, &run.legs))
         .replace("__PNG__", &base64(&png));
     write_output(out_html, html.as_bytes())?;
     Ok(AnimationSummary {
@@ -315,7 +265,7 @@ mod tests {
     }
 
     #[test]
-    fn every_tick_becomes_a_frame_with_its_band_and_bodies() {
+    fn every_tick_becomes_a_frame_with_its_band() {
         let bytes = write_synthetic(Cursor::new(Vec::new()), 30, WriterOptions::default())
             .unwrap()
             .into_inner();
@@ -331,15 +281,69 @@ mod tests {
         assert_eq!(pb.bands.len(), 6);
         assert!(pb.frames[0].band.is_none());
         assert_eq!(pb.frames[6].band, Some(1));
-        // The synthetic rack never moves: one set of movable bodies.
-        assert_eq!(pb.body_sets.len(), 1);
-        assert!(pb.frames.iter().all(|f| f.bodies == Some(0)));
-        let j = data_json(&pb);
+        let legs = ["out".to_string(), "back".to_string()];
+        let j = data_json(&pb, &[], &legs);
         assert!(
-            j.starts_with("{\"frames\":[[0,0,0,0,0,-1,0],"),
+            j.starts_with("{\"frames\":[[0,0,0,0,0,-1],"),
             "{}",
             &j[..60]
         );
+        assert!(j.contains("\"legs\":[\"out\",\"back\"]"));
         assert!(j.ends_with("\"robot\":[0.508,0.43]}"));
+    }
+
+    /// The page's `poseAt`: a body's newest pose at or before `t`, its first before that.
+    fn pose_at(body: &serde_json::Value, t: f64) -> Vec<f64> {
+        let poses = body["p"].as_array().unwrap();
+        let at = |p: &serde_json::Value| -> Vec<f64> {
+            p.as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_f64().unwrap())
+                .collect()
+        };
+        let mut pose = at(&poses[0]);
+        for p in poses.iter().map(at) {
+            if p[0] > t {
+                break;
+            }
+            pose = p;
+        }
+        pose
+    }
+
+    #[test]
+    fn the_page_moves_a_carried_rack_with_the_robot_and_drops_it_at_its_destination() {
+        let file = crate::render::tests::carry_file();
+        let background = Layers {
+            driven: false,
+            bands: false,
+            movables: false,
+        };
+        let opts = RenderOptions::default();
+        let (_, summary, run) = render_layers(&file, &opts, background).unwrap();
+        // The background holds no movable body and no driven path: the page draws them.
+        assert!(
+            !summary
+                .legend
+                .iter()
+                .any(|l| l.starts_with("moved") || l == "start")
+        );
+        assert!(summary.legend.contains(&"2: turn in place".to_string()));
+        let j = data_json(&collect(&file), &run.movables, &run.legs);
+        let d: serde_json::Value = serde_json::from_str(&j).unwrap();
+        let rack = &d["bodies"][0];
+        assert_eq!(
+            (rack["k"].as_u64(), rack["l"].as_f64()),
+            (Some(1), Some(0.88))
+        );
+        assert_eq!(d["bodies"][1]["k"].as_u64(), Some(0), "the unseen stack");
+        // At the pick before it is carried, with the robot while carried (drives down
+        // x = 2 from t = 3 s), at the drop from t = 5 s on.
+        assert_eq!(pose_at(rack, 2.5)[1..3], [2.0, 0.0]);
+        assert_eq!(pose_at(rack, 4.0)[1..3], [2.0, -1.0]);
+        assert_eq!(pose_at(rack, 4.95)[1..3], [2.0, -1.9]);
+        assert_eq!(pose_at(rack, 5.5)[1..3], [2.0, -2.0]);
+        assert_eq!(d["legs"][2], "carry to drop");
     }
 }

@@ -13,21 +13,21 @@
 //! - [`inspect`]: a running instance seen from outside, topic by topic (`aisle topics`,
 //!   `echo`, `hz`): services, samples as text, rates;
 //! - [`ros2`]: a record as a ROS 2 bag (`aisle export --ros2`);
-//! - [`render`]: a top-view PNG of a run; [`animate`]: a self-contained HTML page that
-//!   plays the run back.
+//! - [`render`]: a top-view PNG of a run, drawn with `plotters` ([`fonts`]: the embedded
+//!   font); [`animate`]: a self-contained HTML page that plays the run back.
 //!
 //! Lower layers: [`catalog`] (service -> message type), [`writer`] (the MCAP layout),
 //! [`viewer`] (Foxglove protobuf conversion), [`aligned`] (viewing bytes as messages),
-//! [`canvas`] (raster drawing and PNG), `raw_ports` (type-erased publishers and
+//! `raw_ports` (type-erased publishers and
 //! subscribers opened by topic name, for the recorder and both replays),
 //! `payload_fields` (header fields read from raw payload bytes). [`synthetic`] makes a
 //! deterministic fake run for tests, benchmarks and examples.
 
 pub mod aligned;
 pub mod animate;
-pub mod canvas;
 pub mod catalog;
 pub mod diff;
+pub mod fonts;
 pub mod inspect;
 pub mod latency;
 pub mod lockstep;

@@ -3,6 +3,7 @@
 //! Knows the report's series and budgets; not how they were measured.
 
 use super::{ProfileError, ProfileReport};
+use crate::fonts::FAMILY;
 use crate::latency::{Budgets, nearest_rank};
 use plotters::coord::Shift;
 use plotters::element::DashedPathElement;
@@ -93,6 +94,8 @@ pub fn plot(r: &ProfileReport) -> Result<String, ProfileError> {
         .unwrap_or(0)
         .max(1);
     let dt_ms = r.book.dt_ns() as f64 / 1e6;
+    // Plotters lays text out with the embedded font's metrics (the SVG names the family).
+    crate::fonts::ensure();
     let mut out = String::new();
     {
         let height = PANEL_HEIGHT * panels.len().max(1) as u32;
@@ -130,7 +133,7 @@ fn draw_panel(
     let legend = (entries as f64 * 16.0 + 12.0) / 230.0;
     let top = highest / (1.0 - legend.min(0.6));
     let mut chart = ChartBuilder::on(area)
-        .caption(title, ("sans-serif", 18))
+        .caption(title, (FAMILY, 18))
         .margin(8)
         .x_label_area_size(34)
         .y_label_area_size(58)
@@ -141,7 +144,7 @@ fn draw_panel(
         .y_labels(6)
         .x_desc(format!("tick (dt = {dt_ms} ms)"))
         .y_desc("ms")
-        .label_style(("sans-serif", 14))
+        .label_style((FAMILY, 14))
         .draw()?;
     for (i, (name, samples, budget)) in lines.iter().enumerate() {
         let color = COLORS[i % COLORS.len()];
@@ -174,7 +177,7 @@ fn draw_panel(
         .position(SeriesLabelPosition::UpperRight)
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK.mix(0.4))
-        .label_font(("sans-serif", 14))
+        .label_font((FAMILY, 14))
         .draw()
 }
 
