@@ -4,38 +4,58 @@
 //! success, 1 a negative verdict, 2 could not do what was asked.
 //!
 //! Here: the command tree and the dispatch. `args`: the arguments of `run`, `replay`,
-//! `record`, `node` and their option structs; `config`: where the config directory
-//! comes from; `commands`: `check`, `map export`, `run`.
+//! `record`, `node` and their option structs; `config`: the config directory (given,
+//! or the built-in one); `commands`: `check`, `map export`, `run`; `install`: `init`,
+//! `completions`, `--version`; `logging`: the tracing subscriber and `--color`.
 
 mod args;
 mod commands;
 mod config;
+mod install;
+mod logging;
+#[cfg(test)]
+mod tests;
 
 pub use args::{NodeCmd, RecordArgs, ReplayArgs, RunArgs};
-pub use config::config_dir;
+pub use config::{ConfigDir, embedded_files, resolve as resolve_config_dir};
+pub use logging::Color;
 
 use crate::scenario_cli::{self, ScenarioCommand, SweepArgs};
 use crate::{exit, nodes, records};
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use commands::{check, export_map, run};
-use std::path::PathBuf;
+use logging::init_logging;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 #[derive(Debug, Parser)]
 #[command(
     name = "aisle",
-    version,
-    about = "Warehouse robot navigation: run the seed mission, check configs, export maps",
+    about = "Warehouse robot navigation in simulation: run and record missions of a \
+process group on shared memory, watch and replay them, profile, render and check them",
+    long_about = "Warehouse robot navigation in simulation. `run` launches the process \
+group (simulator, lidar, mapper, global planner, TEB controller, nodes of your own) on \
+iceoryx2 shared memory and drives the mission; `check` validates a config, `init` writes \
+the built-in one out to edit, `map export` writes its static map, `scenario` varies it, \
+`sweep` runs many generated scenarios; `record`, `replay`, `profile` and `render` work \
+on MCAP records; `instance`, `topics`, `echo` and `hz` inspect a live group; `clean` \
+removes what killed runs left; `gen` writes the Python SDK's bindings, `completions` a \
+shell's completion script. Without --config-dir every command uses the config built \
+into the binary.",
     after_help = exit::TABLE
 )]
 pub struct Cli {
+    /// Colour in log lines: auto (when stderr is a terminal and NO_COLOR is unset),
+    /// always or never.
+    #[arg(long, global = true, value_enum, default_value_t = Color::Auto)]
+    pub color: Color,
     #[command(subcommand)]
     pub command: Command,
 }
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Launch the process group and run the mission of `config/mission.toml`.
+    /// Launch the process group and run the mission of the config's `mission.toml`.
     #[command(
         after_help = "Exit: 0 mission succeeded, 1 mission failed (a collision unless \
 --allow-collisions, an unreachable goal, a timeout), 2 could not run (invalid config or \
@@ -50,6 +70,7 @@ mission, output path not writable, setup failure, the group could not go on, int
 key), 2 the config directory cannot be read."
     )]
     Check {
+        /// The config directory (default: the built-in config).
         #[arg(long)]
         config_dir: Option<PathBuf>,
     },
@@ -83,9 +104,12 @@ setup failure)."
     /// page that plays the run back.
     #[command(after_help = "Exit: 0 written, 2 could not (unreadable record, unwritable output).")]
     Render {
+        /// The MCAP record (`aisle run --record`).
         file: PathBuf,
+        /// The picture (`.png`) or page (`.html`) to write.
         #[arg(short, long)]
         output: PathBuf,
+        /// Scale of the picture.
         #[arg(long, default_value_t = 25.0)]
         pixels_per_metre: f64,
         /// Draw every n-th controller band (0 for none).
@@ -94,7 +118,10 @@ setup failure)."
     },
     /// Remove what killed runs left (instance roots in the run directory, /dev/shm
     /// files) whose supervisor is gone; a running group's instance is never touched.
-    /// Exit 0, or 2 when the run directory is refused or a removal failed.
+    #[command(
+        after_help = "Exit: 0 removed (or nothing to remove), 2 the run directory is \
+refused or a removal failed."
+    )]
     Clean {
         /// Only list what would be removed.
         #[arg(long)]
@@ -126,6 +153,8 @@ arguments, unwritable output directory)."
     Inspect(crate::inspect_cli::InspectCommand),
     #[command(flatten)]
     Gen(crate::gen_cli::GenCommand),
+    #[command(flatten)]
+    Install(install::InstallCommand),
     /// Run one node of a process group (started by `aisle run`, not by hand).
     #[command(hide = true)]
     Node(NodeCmd),
@@ -137,31 +166,42 @@ pub enum MapCommand {
     Export {
         /// Output directory (created if missing).
         dir: PathBuf,
+        /// Base name of the two files.
         #[arg(long, default_value = "warehouse")]
         name: String,
+        /// The config directory (default: the built-in config).
         #[arg(long)]
         config_dir: Option<PathBuf>,
     },
 }
-fn init_logging(default: &str) {
-    let filter = tracing_subscriber::EnvFilter::try_from_env("AISLE_LOG")
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
-    let _ = tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .with_target(false)
-        .try_init();
+/// The command tree, with the version line of this build.
+pub fn command() -> clap::Command {
+    Cli::command().version(install::version())
 }
+
+/// Runs `f` with the config directory: `--config-dir`, else the built-in config (a
+/// private copy, removed when `f` returns).
+fn with_config(explicit: Option<&Path>, f: impl FnOnce(&Path) -> ExitCode) -> ExitCode {
+    match config::resolve(explicit) {
+        Ok(dir) => f(dir.path()),
+        Err(e) => exit::fail(format!("{e:#}")),
+    }
+}
+
 pub fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::from_arg_matches(&command().get_matches()) {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
+    let log = |default: &str| init_logging(default, cli.color);
     match cli.command {
         Command::Node(cmd) => {
-            init_logging("warn");
+            log("warn");
             nodes::main(cmd.into())
         }
         Command::Check { config_dir: dir } => {
-            init_logging("warn");
-            check(&config_dir(dir.as_deref()))
+            log("warn");
+            with_config(dir.as_deref(), check)
         }
         Command::Map {
             command:
@@ -171,19 +211,21 @@ pub fn main() -> ExitCode {
                     config_dir: cd,
                 },
         } => {
-            init_logging("warn");
-            export_map(&config_dir(cd.as_deref()), &dir, &name)
+            log("warn");
+            with_config(cd.as_deref(), |c| export_map(c, &dir, &name))
         }
         Command::Replay(a) => {
-            init_logging("info");
+            log("info");
             records::replay(&a.into())
         }
         Command::Record(a) => {
-            init_logging("info");
-            records::record(&a.into())
+            log("info");
+            with_config(a.config_dir.clone().as_deref(), |c| {
+                records::record(&a.request(c))
+            })
         }
         Command::Profile(a) => {
-            init_logging("warn");
+            log("warn");
             crate::profile_cli::profile(&a)
         }
         Command::Render {
@@ -192,12 +234,13 @@ pub fn main() -> ExitCode {
             pixels_per_metre,
             band_every,
         } => {
-            init_logging("warn");
+            log("warn");
             records::render(&file, &output, pixels_per_metre, band_every)
         }
         Command::Clean { dry_run } => crate::clean::clean(dry_run),
         Command::Inspect(c) => crate::inspect_cli::main(c),
         Command::Gen(c) => crate::gen_cli::main(c),
+        Command::Install(c) => install::main(c),
         Command::Scenario {
             command:
                 ScenarioCommand::Generate {
@@ -207,16 +250,23 @@ pub fn main() -> ExitCode {
                     config_dir: cd,
                 },
         } => {
-            init_logging("warn");
-            scenario_cli::generate(seed, &family, out, &config_dir(cd.as_deref()))
+            log("warn");
+            with_config(cd.as_deref(), |c| {
+                scenario_cli::generate(seed, &family, out, c)
+            })
         }
         Command::Sweep(a) => {
-            init_logging("warn");
-            scenario_cli::sweep(a)
+            log("warn");
+            with_config(a.config_dir.clone().as_deref(), |c| {
+                scenario_cli::sweep(a, c)
+            })
         }
         Command::Run(args) => {
-            init_logging("info");
-            run(&args.into())
+            log("info");
+            with_config(
+                args.config_dir.clone().as_deref(),
+                |c| run(&args.options(c)),
+            )
         }
     }
 }

@@ -1,20 +1,20 @@
 //! The arguments of `run`, `replay`, `record` and the hidden `node`, and their
 //! conversion into the plain option structs of the modules that do the work.
 
-use super::config::config_dir;
 use crate::nodes::NodeOptions;
 use crate::records::{RecordRequest, ReplayRequest};
 use crate::session::RunOptions;
 use aisle_messages::TickMode;
 use clap::Args;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(Debug, Clone, Args)]
 pub struct RunArgs {
     /// Tick on the wall clock at the update rate instead of lockstep.
     #[arg(long)]
     pub realtime: bool,
-    /// Directory of the config files (default: ./config, else the built-in one).
+    /// Directory of the config files (default: the built-in config; `aisle init DIR`
+    /// writes it out to edit).
     #[arg(long)]
     pub config_dir: Option<PathBuf>,
     /// Write the mission metrics and the latency table as JSON.
@@ -54,6 +54,7 @@ pub struct RunArgs {
 
 #[derive(Debug, Clone, Args)]
 pub struct ReplayArgs {
+    /// The MCAP record to replay.
     pub file: PathBuf,
     /// Instance prefix of the live group to publish into (as `aisle run` logs it);
     /// without --prefix/--root the replay creates its own instance (found by discovery).
@@ -101,14 +102,16 @@ pub struct ReplayArgs {
 
 #[derive(Debug, Args)]
 pub struct RecordArgs {
+    /// Instance prefix of the running group (as `aisle run` logs it).
     #[arg(long)]
     pub prefix: String,
+    /// Instance root of the running group.
     #[arg(long)]
     pub root: PathBuf,
     /// The MCAP file to write.
     #[arg(short, long)]
     pub output: PathBuf,
-    /// The group's config directory (attached to the file); default `config/`.
+    /// The group's config directory (attached to the file); default the built-in one.
     #[arg(long)]
     pub config_dir: Option<PathBuf>,
     /// The group's mission file, for the run metadata (start pose, tick rate); default
@@ -122,20 +125,27 @@ pub struct RecordArgs {
 
 #[derive(Debug, Args)]
 pub struct NodeCmd {
+    /// The node: simulator, lidar, mapper, global_planner, teb_controller, recorder.
     pub name: String,
+    /// Instance prefix of the group.
     #[arg(long)]
     pub prefix: String,
+    /// Instance root of the group.
     #[arg(long)]
     pub root: PathBuf,
+    /// The group's config directory.
     #[arg(long)]
     pub config_dir: PathBuf,
+    /// Simulated time per tick, ns.
     #[arg(long, default_value_t = 100_000_000)]
     pub dt_ns: u64,
+    /// The controller acts every this many ticks.
     #[arg(long, default_value_t = 5)]
     pub controller_every: u32,
     /// Start pose `x,y,heading`.
     #[arg(long, default_value = "0,0,0", allow_hyphen_values = true)]
     pub start: String,
+    /// The lidar returns nothing (`aisle run --no-lidar`).
     #[arg(long)]
     pub lidar_off: bool,
     /// This node replaces one that died: resume from its published state.
@@ -151,10 +161,13 @@ pub struct NodeCmd {
     #[arg(long, hide = true)]
     pub fail_on_start: bool,
 }
-impl From<RunArgs> for RunOptions {
-    fn from(args: RunArgs) -> RunOptions {
+impl RunArgs {
+    /// The options of a run whose config directory is `config_dir` (resolved from
+    /// `--config-dir` by the caller, who keeps a built-in one alive).
+    pub fn options(self, config_dir: &Path) -> RunOptions {
+        let args = self;
         RunOptions {
-            config_dir: config_dir(args.config_dir.as_deref()),
+            config_dir: config_dir.to_path_buf(),
             mode: if args.realtime {
                 TickMode::Realtime
             } else {
@@ -194,10 +207,12 @@ impl From<ReplayArgs> for ReplayRequest {
     }
 }
 
-impl From<RecordArgs> for RecordRequest {
-    fn from(a: RecordArgs) -> RecordRequest {
+impl RecordArgs {
+    /// The request of a recording whose config directory is `config_dir`.
+    pub fn request(self, config_dir: &Path) -> RecordRequest {
+        let a = self;
         RecordRequest {
-            config_dir: config_dir(a.config_dir.as_deref()),
+            config_dir: config_dir.to_path_buf(),
             prefix: a.prefix,
             root: a.root,
             output: a.output,
