@@ -210,6 +210,30 @@ impl Instance {
         }
     }
 
+    /// The pids of the processes that still have a live node in the instance, other
+    /// than this one: observers that joined it (an external `aisle record`, `aisle
+    /// echo`, a Python client). Empty when the instance cannot be listed (it is gone).
+    pub fn attached_pids(&self) -> Vec<u32> {
+        use iceoryx2::node::NodeView;
+        let Ok(config) = self.iceoryx_config() else {
+            return Vec::new();
+        };
+        let own = std::process::id();
+        let mut pids = Vec::new();
+        let _ = Node::<ipc::Service>::list(&config, |state| {
+            if let iceoryx2::node::NodeState::Alive(view) = state
+                && let Some(details) = view.details()
+                && let Ok(pid) = u32::try_from(details.process_id().value())
+                && pid != own
+                && !pids.contains(&pid)
+            {
+                pids.push(pid);
+            }
+            CallbackProgression::Continue
+        });
+        pids
+    }
+
     /// True when nothing of the instance remains on disk or in /dev/shm.
     pub fn is_gone(&self) -> bool {
         self.shm_files().is_empty() && !self.root.exists()

@@ -2,32 +2,60 @@
 //! arguments into the plain option structs of the modules that do the work (which know
 //! nothing of clap), and maps every outcome to an exit code ([`crate::exit`]): 0
 //! success, 1 a negative verdict, 2 could not do what was asked.
+//!
+//! Here: the command tree and the dispatch. `args`: the arguments of `run`, `replay`,
+//! `record`, `node` and their option structs; `config`: the config directory (given,
+//! or the built-in one); `commands`: `check`, `map export`, `run`; `install`: `init`,
+//! `completions`, `--version`; `logging`: the tracing subscriber and `--color`.
 
-use crate::nodes::NodeOptions;
-use crate::records::{RecordRequest, ReplayRequest};
+mod args;
+mod commands;
+mod config;
+mod install;
+mod logging;
+#[cfg(test)]
+mod tests;
+
+pub use args::{NodeCmd, RecordArgs, ReplayArgs, RunArgs};
+pub use config::{ConfigDir, embedded_files, resolve as resolve_config_dir};
+pub use logging::Color;
+
 use crate::scenario_cli::{self, ScenarioCommand, SweepArgs};
-use crate::session::RunOptions;
-use crate::{check, exit, nodes, records, session};
-use aisle_messages::TickMode;
-use clap::{Args, Parser, Subcommand};
+use crate::{exit, nodes, records};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
+use commands::{check, export_map, run};
+use logging::init_logging;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 #[derive(Debug, Parser)]
 #[command(
     name = "aisle",
-    version,
-    about = "Warehouse robot navigation: run the seed mission, check configs, export maps",
+    about = "Warehouse robot navigation in simulation: run and record missions of a \
+process group on shared memory, watch and replay them, profile, render and check them",
+    long_about = "Warehouse robot navigation in simulation. `run` launches the process \
+group (simulator, lidar, mapper, global planner, TEB controller, nodes of your own) on \
+iceoryx2 shared memory and drives the mission; `check` validates a config, `init` writes \
+the built-in one out to edit, `map export` writes its static map, `scenario` varies it, \
+`sweep` runs many generated scenarios; `record`, `replay`, `profile`, `render` and \
+`export` (a ROS 2 bag) work on MCAP records; `instance`, `topics`, `echo` and `hz` inspect a live group; `clean` \
+removes what killed runs left; `gen` writes the Python SDK's bindings, `completions` a \
+shell's completion script. Without --config-dir every command uses the config built \
+into the binary.",
     after_help = exit::TABLE
 )]
 pub struct Cli {
+    /// Colour in log lines: auto (when stderr is a terminal and NO_COLOR is unset),
+    /// always or never.
+    #[arg(long, global = true, value_enum, default_value_t = Color::Auto)]
+    pub color: Color,
     #[command(subcommand)]
     pub command: Command,
 }
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Launch the process group and run the mission of `config/mission.toml`.
+    /// Launch the process group and run the mission of the config's `mission.toml`.
     #[command(
         after_help = "Exit: 0 mission succeeded, 1 mission failed (a collision unless \
 --allow-collisions, an unreachable goal, a timeout), 2 could not run (invalid config or \
@@ -42,6 +70,7 @@ mission, output path not writable, setup failure, the group could not go on, int
 key), 2 the config directory cannot be read."
     )]
     Check {
+        /// The config directory (default: the built-in config).
         #[arg(long)]
         config_dir: Option<PathBuf>,
     },
@@ -75,9 +104,12 @@ setup failure)."
     /// page that plays the run back.
     #[command(after_help = "Exit: 0 written, 2 could not (unreadable record, unwritable output).")]
     Render {
+        /// The MCAP record (`aisle run --record`).
         file: PathBuf,
+        /// The picture (`.png`) or page (`.html`) to write.
         #[arg(short, long)]
         output: PathBuf,
+        /// Scale of the picture.
         #[arg(long, default_value_t = 25.0)]
         pixels_per_metre: f64,
         /// Draw every n-th controller band (0 for none).
@@ -86,7 +118,10 @@ setup failure)."
     },
     /// Remove what killed runs left (instance roots in the run directory, /dev/shm
     /// files) whose supervisor is gone; a running group's instance is never touched.
-    /// Exit 0, or 2 when the run directory is refused or a removal failed.
+    #[command(
+        after_help = "Exit: 0 removed (or nothing to remove), 2 the run directory is \
+refused or a removal failed."
+    )]
     Clean {
         /// Only list what would be removed.
         #[arg(long)]
@@ -120,6 +155,7 @@ arguments, unwritable output directory)."
     Gen(crate::gen_cli::GenCommand),
     #[command(flatten)]
     Export(crate::export_cli::ExportCommand),
+    Install(install::InstallCommand),
     /// Run one node of a process group (started by `aisle run`, not by hand).
     #[command(hide = true)]
     Node(NodeCmd),
@@ -131,189 +167,42 @@ pub enum MapCommand {
     Export {
         /// Output directory (created if missing).
         dir: PathBuf,
+        /// Base name of the two files.
         #[arg(long, default_value = "warehouse")]
         name: String,
+        /// The config directory (default: the built-in config).
         #[arg(long)]
         config_dir: Option<PathBuf>,
     },
 }
-
-#[derive(Debug, Clone, Args)]
-pub struct RunArgs {
-    /// Tick on the wall clock at the update rate instead of lockstep.
-    #[arg(long)]
-    pub realtime: bool,
-    /// Directory of the config files (default: ./config, else the built-in one).
-    #[arg(long)]
-    pub config_dir: Option<PathBuf>,
-    /// Write the mission metrics and the latency table as JSON.
-    #[arg(long)]
-    pub report: Option<PathBuf>,
-    /// No progress lines, only the summary.
-    #[arg(long)]
-    pub quiet: bool,
-    /// Seed of the run (lidar noise).
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
-    /// Switch the lidar off: it returns nothing (shows what the unseen obstacles do;
-    /// pair it with --allow-collisions to watch the whole mission).
-    #[arg(long)]
-    pub no_lidar: bool,
-    /// Report collisions without failing the mission. Without it the first collision
-    /// stops the robot (as an e-stop would) and the run exits 1 naming the body.
-    #[arg(long)]
-    pub allow_collisions: bool,
-    /// Mission file instead of `<config-dir>/mission.toml`.
-    #[arg(long)]
-    pub mission: Option<PathBuf>,
-    /// Record every service to this MCAP file (raw payloads plus Foxglove channels).
-    #[arg(long)]
-    pub record: Option<PathBuf>,
-    /// Write every latency sample to this CSV file (stage, tick, ms).
-    #[arg(long)]
-    pub samples: Option<PathBuf>,
-    /// Fault injection: SIGKILL a node when the run reaches a tick, e.g. `lidar@120`
-    /// (once; the node is restarted as after any crash). Repeatable.
-    #[arg(long = "kill", value_name = "NODE@TICK")]
-    pub kill: Vec<String>,
-    /// Fault injection: this node fails at every start (tests the restart limit).
-    #[arg(long, value_name = "NODE", hide = true)]
-    pub crash_on_start: Option<String>,
+/// The command tree, with the version line of this build.
+pub fn command() -> clap::Command {
+    Cli::command().version(install::version())
 }
 
-#[derive(Debug, Clone, Args)]
-pub struct ReplayArgs {
-    pub file: PathBuf,
-    /// Instance prefix of the live group to publish into (as `aisle run` logs it);
-    /// without --prefix/--root the replay creates its own instance (found by discovery).
-    #[arg(long, requires = "root")]
-    pub prefix: Option<String>,
-    /// Instance root of the live group.
-    #[arg(long, requires = "prefix")]
-    pub root: Option<PathBuf>,
-    /// Play the file again from its start when it ends, until Ctrl-C.
-    #[arg(long = "loop", conflicts_with_all = ["check", "lockstep"])]
-    pub looping: bool,
-    /// Before the first sample, wait until the replayed topics have N subscribers.
-    #[arg(long, value_name = "N", default_value_t = 0, conflicts_with_all = ["check", "lockstep"])]
-    pub wait_subscribers: usize,
-    /// Playback rate relative to the recording (omit with --fast for no pacing).
-    #[arg(long, default_value_t = 1.0)]
-    pub rate: f64,
-    /// As fast as possible.
-    #[arg(long)]
-    pub fast: bool,
-    /// Only these services (e.g. aisle/lidar/points); default all but instance and heartbeats.
-    #[arg(long, num_args = 1..)]
-    pub topics: Vec<String>,
-    /// Skip the first seconds of the recording.
-    #[arg(long, default_value_t = 0.0)]
-    pub start: f64,
-    /// Tick by tick: publish a tick's inputs, wait until the consumers (--wait-for)
-    /// acknowledged it, then the next (a lockstep recording only). Without
-    /// --prefix/--root the consumers are launched from this build in a new instance.
-    #[arg(long, conflicts_with_all = ["rate", "fast"])]
-    pub lockstep: bool,
-    /// With --lockstep: the nodes whose acknowledgements pace the replay.
-    #[arg(long, value_delimiter = ',', default_value = "mapper,teb_controller")]
-    pub wait_for: Vec<String>,
-    /// Regression check: launch a fresh mapper and controller, replay the recorded
-    /// sensor traffic and goals into them in lockstep, compare their outputs with the
-    /// recorded ones. Exit 0 identical, 1 diverged (first divergence printed), 2 error.
-    #[arg(long, conflicts_with_all = ["prefix", "root", "rate", "fast", "topics", "start", "lockstep"])]
-    pub check: bool,
-    /// With --check or a --lockstep that launches its nodes: the config directory they
-    /// use (default: the config files attached to the recording).
-    #[arg(long, conflicts_with = "prefix")]
-    pub config_dir: Option<PathBuf>,
-}
-
-#[derive(Debug, Args)]
-pub struct RecordArgs {
-    #[arg(long)]
-    pub prefix: String,
-    #[arg(long)]
-    pub root: PathBuf,
-    /// The MCAP file to write.
-    #[arg(short, long)]
-    pub output: PathBuf,
-    /// The group's config directory (attached to the file); default `config/`.
-    #[arg(long)]
-    pub config_dir: Option<PathBuf>,
-    /// The group's mission file, for the run metadata (start pose, tick rate); default
-    /// the config directory's `mission.toml`.
-    #[arg(long)]
-    pub mission: Option<PathBuf>,
-    /// Finalise after this many seconds without traffic (the group ended).
-    #[arg(long, default_value_t = 5.0)]
-    pub idle_stop: f64,
-}
-
-#[derive(Debug, Args)]
-pub struct NodeCmd {
-    pub name: String,
-    #[arg(long)]
-    pub prefix: String,
-    #[arg(long)]
-    pub root: PathBuf,
-    #[arg(long)]
-    pub config_dir: PathBuf,
-    #[arg(long, default_value_t = 100_000_000)]
-    pub dt_ns: u64,
-    #[arg(long, default_value_t = 5)]
-    pub controller_every: u32,
-    /// Start pose `x,y,heading`.
-    #[arg(long, default_value = "0,0,0", allow_hyphen_values = true)]
-    pub start: String,
-    #[arg(long)]
-    pub lidar_off: bool,
-    /// This node replaces one that died: resume from its published state.
-    #[arg(long)]
-    pub restarted: bool,
-    /// The recorder's output file.
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// A recorder runs (the simulator waits for it in lockstep).
-    #[arg(long)]
-    pub recorded: bool,
-    /// Fault injection for tests: fail at start, every time.
-    #[arg(long, hide = true)]
-    pub fail_on_start: bool,
-}
-
-/// The config directory: explicit, else `./config`, else the one this binary was built
-/// from (so `cargo run` works from any directory of the checkout).
-pub fn config_dir(explicit: Option<&Path>) -> PathBuf {
-    if let Some(p) = explicit {
-        return p.to_path_buf();
+/// Runs `f` with the config directory: `--config-dir`, else the built-in config (a
+/// private copy, removed when `f` returns).
+fn with_config(explicit: Option<&Path>, f: impl FnOnce(&Path) -> ExitCode) -> ExitCode {
+    match config::resolve(explicit) {
+        Ok(dir) => f(dir.path()),
+        Err(e) => exit::fail(format!("{e:#}")),
     }
-    let local = PathBuf::from("config");
-    if local.join("warehouse.toml").is_file() {
-        return local;
-    }
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config")
-}
-
-fn init_logging(default: &str) {
-    let filter = tracing_subscriber::EnvFilter::try_from_env("AISLE_LOG")
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
-    let _ = tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .with_target(false)
-        .try_init();
 }
 
 pub fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::from_arg_matches(&command().get_matches()) {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
+    let log = |default: &str| init_logging(default, cli.color);
     match cli.command {
         Command::Node(cmd) => {
-            init_logging("warn");
+            log("warn");
             nodes::main(cmd.into())
         }
         Command::Check { config_dir: dir } => {
-            init_logging("warn");
-            check(&config_dir(dir.as_deref()))
+            log("warn");
+            with_config(dir.as_deref(), check)
         }
         Command::Map {
             command:
@@ -323,19 +212,21 @@ pub fn main() -> ExitCode {
                     config_dir: cd,
                 },
         } => {
-            init_logging("warn");
-            export_map(&config_dir(cd.as_deref()), &dir, &name)
+            log("warn");
+            with_config(cd.as_deref(), |c| export_map(c, &dir, &name))
         }
         Command::Replay(a) => {
-            init_logging("info");
+            log("info");
             records::replay(&a.into())
         }
         Command::Record(a) => {
-            init_logging("info");
-            records::record(&a.into())
+            log("info");
+            with_config(a.config_dir.clone().as_deref(), |c| {
+                records::record(&a.request(c))
+            })
         }
         Command::Profile(a) => {
-            init_logging("warn");
+            log("warn");
             crate::profile_cli::profile(&a)
         }
         Command::Render {
@@ -344,13 +235,14 @@ pub fn main() -> ExitCode {
             pixels_per_metre,
             band_every,
         } => {
-            init_logging("warn");
+            log("warn");
             records::render(&file, &output, pixels_per_metre, band_every)
         }
         Command::Clean { dry_run } => crate::clean::clean(dry_run),
         Command::Inspect(c) => crate::inspect_cli::main(c),
         Command::Gen(c) => crate::gen_cli::main(c),
         Command::Export(c) => crate::export_cli::main(c),
+        Command::Install(c) => install::main(c),
         Command::Scenario {
             command:
                 ScenarioCommand::Generate {
@@ -360,141 +252,23 @@ pub fn main() -> ExitCode {
                     config_dir: cd,
                 },
         } => {
-            init_logging("warn");
-            scenario_cli::generate(seed, &family, out, &config_dir(cd.as_deref()))
+            log("warn");
+            with_config(cd.as_deref(), |c| {
+                scenario_cli::generate(seed, &family, out, c)
+            })
         }
         Command::Sweep(a) => {
-            init_logging("warn");
-            scenario_cli::sweep(a)
+            log("warn");
+            with_config(a.config_dir.clone().as_deref(), |c| {
+                scenario_cli::sweep(a, c)
+            })
         }
         Command::Run(args) => {
-            init_logging("info");
-            run(&args.into())
-        }
-    }
-}
-
-/// `aisle check`: 1 for an invalid config, 2 when there is no directory to check.
-fn check(dir: &Path) -> ExitCode {
-    if !dir.is_dir() {
-        return exit::fail(format!("{}: not a directory", dir.display()));
-    }
-    match check::check_dir(dir) {
-        Ok(files) => {
-            for f in &files {
-                println!("ok  {}", f.display());
-            }
-            println!("{} config files valid in {}", files.len(), dir.display());
-            ExitCode::SUCCESS
-        }
-        Err(e) => {
-            eprintln!("error: {e}");
-            exit::negative()
-        }
-    }
-}
-
-/// `aisle map export`.
-fn export_map(config_dir: &Path, dir: &Path, name: &str) -> ExitCode {
-    match aisle_mapper::export_from_config_dir(config_dir, dir, name) {
-        Ok(files) => {
-            println!(
-                "wrote {} and {}",
-                files.yaml.display(),
-                files.image.display()
-            );
-            ExitCode::SUCCESS
-        }
-        Err(e) => exit::fail(e),
-    }
-}
-
-/// `aisle run`.
-fn run(opts: &RunOptions) -> ExitCode {
-    aisle_bus::discovery::set_creator("run", Some(&opts.config_dir));
-    match session::run(opts) {
-        Ok(outcome) => {
-            if outcome.succeeded {
-                ExitCode::SUCCESS
-            } else {
-                exit::negative()
-            }
-        }
-        Err(e) => exit::fail(format!("{e:#}")),
-    }
-}
-
-impl From<RunArgs> for RunOptions {
-    fn from(args: RunArgs) -> RunOptions {
-        RunOptions {
-            config_dir: config_dir(args.config_dir.as_deref()),
-            mode: if args.realtime {
-                TickMode::Realtime
-            } else {
-                TickMode::Lockstep
-            },
-            report: args.report,
-            quiet: args.quiet,
-            seed: args.seed,
-            lidar_off: args.no_lidar,
-            allow_collisions: args.allow_collisions,
-            mission: args.mission,
-            kill: args.kill,
-            record: args.record,
-            samples: args.samples,
-            crash_on_start: args.crash_on_start,
-        }
-    }
-}
-
-impl From<ReplayArgs> for ReplayRequest {
-    fn from(a: ReplayArgs) -> ReplayRequest {
-        ReplayRequest {
-            file: a.file,
-            prefix: a.prefix,
-            root: a.root,
-            rate: a.rate,
-            fast: a.fast,
-            topics: a.topics,
-            start: a.start,
-            lockstep: a.lockstep,
-            wait_for: a.wait_for,
-            check: a.check,
-            config_dir: a.config_dir,
-            looping: a.looping,
-            wait_subscribers: a.wait_subscribers,
-        }
-    }
-}
-
-impl From<RecordArgs> for RecordRequest {
-    fn from(a: RecordArgs) -> RecordRequest {
-        RecordRequest {
-            config_dir: config_dir(a.config_dir.as_deref()),
-            prefix: a.prefix,
-            root: a.root,
-            output: a.output,
-            mission: a.mission,
-            idle_stop: a.idle_stop,
-        }
-    }
-}
-
-impl From<NodeCmd> for NodeOptions {
-    fn from(cmd: NodeCmd) -> NodeOptions {
-        NodeOptions {
-            name: cmd.name,
-            prefix: cmd.prefix,
-            root: cmd.root,
-            config_dir: cmd.config_dir,
-            dt_ns: cmd.dt_ns,
-            controller_every: cmd.controller_every,
-            start: cmd.start,
-            lidar_off: cmd.lidar_off,
-            restarted: cmd.restarted,
-            out: cmd.out,
-            recorded: cmd.recorded,
-            fail_on_start: cmd.fail_on_start,
+            log("info");
+            with_config(
+                args.config_dir.clone().as_deref(),
+                |c| run(&args.options(c)),
+            )
         }
     }
 }

@@ -27,6 +27,7 @@ pub enum GenTarget {
         /// Compare the file with what this build generates instead of writing it.
         #[arg(long)]
         check: bool,
+        /// The file to write (or to compare with --check).
         #[arg(long, default_value = pygen::DEFAULT_OUT)]
         out: PathBuf,
     },

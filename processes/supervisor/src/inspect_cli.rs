@@ -68,9 +68,11 @@ passed before --count samples, 2 could not (no instance, unknown topic)."
 instance, unknown topic)."
     )]
     Hz {
+        /// The topic, e.g. aisle/lidar/points (`aisle topics` lists them).
         topic: String,
         #[command(flatten)]
         target: Target,
+        /// Length of one measurement window (e.g. 1s, 500ms).
         #[arg(long, default_value = "1s", value_parser = parse_duration)]
         window: Duration,
         /// Stop after N windows.

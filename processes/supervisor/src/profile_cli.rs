@@ -8,6 +8,7 @@ use std::process::ExitCode;
 
 #[derive(Debug, Clone, clap::Args)]
 pub struct ProfileArgs {
+    /// The MCAP record (`aisle run --record`).
     pub file: PathBuf,
     /// Score against this budgets file instead of the `budgets.toml` attached to the
     /// record.

@@ -3,7 +3,6 @@
 //! [`crate::sweep::SweepOptions`], and their exit codes. Part of [`crate::cli`], kept
 //! apart so that each file stays small.
 
-use crate::cli::config_dir;
 use crate::exit;
 use clap::{Args, Subcommand};
 use std::path::{Path, PathBuf};
@@ -15,14 +14,16 @@ pub enum ScenarioCommand {
     /// mission.toml varied by (seed, family); the header of each says what changed.
     /// Families: moved, extra, start, gap, mission, infeasible.
     Generate {
+        /// Seed of the draw: the same seed and family give the same directory.
         #[arg(long)]
         seed: u64,
+        /// What to vary: moved, extra, start, gap, mission or infeasible.
         #[arg(long)]
         family: String,
         /// The directory to write (created; files in it are overwritten).
         #[arg(long)]
         out: PathBuf,
-        /// The base config directory (default: ./config, else the built-in one).
+        /// The base config directory (default: the built-in one).
         #[arg(long)]
         config_dir: Option<PathBuf>,
     },
@@ -45,7 +46,7 @@ pub struct SweepArgs {
     /// Output directory.
     #[arg(long, default_value = "sweep")]
     pub out: PathBuf,
-    /// The base config directory (default: ./config, else the built-in one).
+    /// The base config directory (default: the built-in one).
     #[arg(long)]
     pub config_dir: Option<PathBuf>,
     /// Wall-clock limit of one run, seconds (then its group is stopped: an error).
@@ -78,7 +79,7 @@ pub fn generate(seed: u64, family: &str, out: PathBuf, base: &Path) -> ExitCode 
 }
 
 /// `aisle sweep`.
-pub fn sweep(a: SweepArgs) -> ExitCode {
+pub fn sweep(a: SweepArgs, base: &Path) -> ExitCode {
     use crate::scenario::Family;
     let families = if a.families.is_empty() {
         Ok(Family::ALL.to_vec())
@@ -101,7 +102,7 @@ pub fn sweep(a: SweepArgs) -> ExitCode {
         jobs,
         families,
         out: a.out,
-        base: config_dir(a.config_dir.as_deref()),
+        base: base.to_path_buf(),
         timeout: std::time::Duration::from_secs_f64(a.timeout),
     };
     let report = match crate::sweep::sweep(&opts) {

@@ -125,7 +125,9 @@ pub fn run(opts: &RunOptions) -> anyhow::Result<RunOutcome> {
         let samples = opts.samples.as_ref().map(|p| (p, s.write_samples(p)));
         (report, r, samples)
     });
-    // Every port is dropped by now; remove what is left of the instance.
+    // Every port is dropped by now; remove what is left of the instance once the
+    // processes that joined it from outside have left.
+    wait_for_observers(&instance);
     let cleanup = instance.remove();
     let (report, r, samples) = result?;
     if let Err(e) = cleanup {
@@ -159,6 +161,38 @@ pub fn run(opts: &RunOptions) -> anyhow::Result<RunOutcome> {
         }),
         Err(RunAborted::Interrupted) => bail!("interrupted: the process group was stopped"),
         Err(RunAborted::Error(e)) => Err(e),
+    }
+}
+
+/// How long a run waits, after its group stopped, for the processes that joined its
+/// instance from outside (an external `aisle record`, `aisle echo`) to leave it.
+const OBSERVER_GRACE: Duration = Duration::from_secs(10);
+
+/// Waits (at most [`OBSERVER_GRACE`]) until no other process has a node in the
+/// instance: removing the files of an observer's ports from under it is what iceoryx2
+/// reports to the observer as a corrupted system when it closes them.
+fn wait_for_observers(instance: &Instance) {
+    let start = Instant::now();
+    let mut told = false;
+    loop {
+        let pids = instance.attached_pids();
+        if pids.is_empty() {
+            return;
+        }
+        if start.elapsed() >= OBSERVER_GRACE {
+            tracing::warn!(
+                "removing the instance while processes {pids:?} are still attached to it"
+            );
+            return;
+        }
+        if !told {
+            tracing::info!(
+                "waiting up to {} s for processes {pids:?} attached to the instance to leave it",
+                OBSERVER_GRACE.as_secs()
+            );
+            told = true;
+        }
+        std::thread::sleep(POLL);
     }
 }
 

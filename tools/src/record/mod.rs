@@ -158,6 +158,10 @@ pub fn run_recorder_with(
     };
     let loop_result = drain(ports, answer, &mut summary);
     let _ = heartbeat.send(NodeState::Stopping, "");
+    // Leave the instance before finalising the file: a group's supervisor waits for the
+    // processes attached to its instance to leave before it removes the instance's
+    // files (what iceoryx2 would otherwise report here as a corrupted system).
+    drop((sources, acks, heartbeat, bus));
 
     // Finalising: the losses into the file, then wait for the writer.
     let stats = loss_metadata(&summary, &loop_result);

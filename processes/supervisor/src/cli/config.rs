@@ -1,0 +1,150 @@
+//! Where the config directory comes from: `--config-dir`, else the default config
+//! embedded in the binary (every file of the workspace's `config/` at build time,
+//! `build.rs`), written to a private temporary directory (0700) for the command's
+//! lifetime, since nodes, URDF, mission and graph are all read by path. So an installed
+//! binary needs no source tree, and the current directory never changes which config
+//! a command uses. Knows nothing of what the files mean.
+
+use anyhow::{Context, bail};
+use std::path::{Path, PathBuf};
+
+mod embedded {
+    include!(concat!(env!("OUT_DIR"), "/embedded_config.rs"));
+}
+
+/// Every embedded file: its path relative to the config directory, its contents.
+pub fn embedded_files() -> &'static [(&'static str, &'static [u8])] {
+    embedded::FILES
+}
+
+/// A config directory a command uses; an embedded one is removed when this is dropped.
+pub struct ConfigDir {
+    path: PathBuf,
+    _temp: Option<tempfile::TempDir>,
+}
+
+impl ConfigDir {
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+/// `explicit`, else the embedded config written to a fresh private directory.
+pub fn resolve(explicit: Option<&Path>) -> anyhow::Result<ConfigDir> {
+    if let Some(p) = explicit {
+        return Ok(ConfigDir {
+            path: p.to_path_buf(),
+            _temp: None,
+        });
+    }
+    // 0700 (created so, not changed after): other users cannot read or swap the files.
+    use std::os::unix::fs::PermissionsExt;
+    let temp = tempfile::Builder::new()
+        .prefix("aisle-config-")
+        .permissions(std::fs::Permissions::from_mode(0o700))
+        .tempdir()
+        .context("creating a directory for the built-in config (is TMPDIR writable?)")?;
+    write_embedded(temp.path(), true)?;
+    tracing::debug!("built-in config in {}", temp.path().display());
+    Ok(ConfigDir {
+        path: temp.path().to_path_buf(),
+        _temp: Some(temp),
+    })
+}
+
+/// Writes every embedded file under `dir` (created if missing) and returns their paths.
+/// Without `force` nothing is written when any of them exists already (the error names
+/// it).
+pub fn write_embedded(dir: &Path, force: bool) -> anyhow::Result<Vec<PathBuf>> {
+    let targets: Vec<(PathBuf, &[u8])> = embedded_files()
+        .iter()
+        .map(|(rel, data)| (dir.join(rel), *data))
+        .collect();
+    if !force && let Some((p, _)) = targets.iter().find(|(p, _)| p.symlink_metadata().is_ok()) {
+        bail!(
+            "{} exists; nothing written (--force overwrites the config files)",
+            p.display()
+        );
+    }
+    for (path, data) in &targets {
+        if let Some(parent) = path.parent() {
+            std::fs::create_dir_all(parent)
+                .with_context(|| format!("creating {}", parent.display()))?;
+        }
+        std::fs::write(path, data).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(targets.into_iter().map(|(p, _)| p).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::BTreeMap;
+
+    fn walk(root: &Path, dir: &Path, out: &mut BTreeMap<String, Vec<u8>>) {
+        for e in std::fs::read_dir(dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                walk(root, &p, out);
+            } else {
+                let rel = p.strip_prefix(root).unwrap().to_str().unwrap().to_string();
+                out.insert(rel, std::fs::read(&p).unwrap());
+            }
+        }
+    }
+
+    /// Every file of `config/` is in the binary, byte for byte, and nothing else is.
+    #[test]
+    fn every_config_file_is_embedded() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config");
+        let mut on_disk = BTreeMap::new();
+        walk(&root, &root, &mut on_disk);
+        let embedded: BTreeMap<String, Vec<u8>> = embedded_files()
+            .iter()
+            .map(|(r, d)| (r.to_string(), d.to_vec()))
+            .collect();
+        assert_eq!(
+            on_disk.keys().collect::<Vec<_>>(),
+            embedded.keys().collect::<Vec<_>>()
+        );
+        for (rel, data) in &on_disk {
+            assert!(
+                embedded[rel] == *data,
+                "{rel} differs from its embedded copy"
+            );
+        }
+        assert!(embedded.contains_key("graph.toml") && embedded.contains_key("jackal.urdf"));
+    }
+
+    #[test]
+    fn the_built_in_config_is_a_private_copy_removed_on_drop() {
+        let dir = resolve(None).unwrap();
+        let path = dir.path().to_path_buf();
+        use std::os::unix::fs::PermissionsExt;
+        let mode = std::fs::metadata(&path).unwrap().permissions().mode();
+        assert_eq!(mode & 0o777, 0o700);
+        assert!(path.join("warehouse.toml").is_file());
+        crate::check::check_dir(&path).unwrap();
+        drop(dir);
+        assert!(!path.exists());
+    }
+
+    #[test]
+    fn writing_refuses_to_overwrite_without_force() {
+        let dir = tempfile::tempdir().unwrap();
+        let written = write_embedded(dir.path(), false).unwrap();
+        assert_eq!(written.len(), embedded_files().len());
+        std::fs::write(dir.path().join("teb.toml"), "edited").unwrap();
+        let e = write_embedded(dir.path(), false).unwrap_err().to_string();
+        assert!(e.contains("exists"), "{e}");
+        assert_eq!(
+            std::fs::read_to_string(dir.path().join("teb.toml")).unwrap(),
+            "edited"
+        );
+        write_embedded(dir.path(), true).unwrap();
+        assert_ne!(
+            std::fs::read_to_string(dir.path().join("teb.toml")).unwrap(),
+            "edited"
+        );
+    }
+}
