@@ -155,6 +155,7 @@ arguments, unwritable output directory)."
     Gen(crate::gen_cli::GenCommand),
     #[command(flatten)]
     Export(crate::export_cli::ExportCommand),
+    #[command(flatten)]
     Install(install::InstallCommand),
     /// Run one node of a process group (started by `aisle run`, not by hand).
     #[command(hide = true)]
