@@ -12,6 +12,8 @@
 //! - [`profile`]: those figures (and output latencies) from a recorded file;
 //! - [`inspect`]: a running instance seen from outside, topic by topic (`aisle topics`,
 //!   `echo`, `hz`): services, samples as text, rates;
+//! - [`live`]: the live view, the viewer channels served over the Foxglove WebSocket
+//!   protocol while a group runs;
 //! - [`ros2`]: a record as a ROS 2 bag (`aisle export --ros2`);
 //! - [`render`]: a top-view PNG of a run, drawn with `plotters` ([`fonts`]: the embedded
 //!   font); [`animate`]: a self-contained HTML page that plays the run back.
@@ -30,6 +32,7 @@ pub mod diff;
 pub mod fonts;
 pub mod inspect;
 pub mod latency;
+pub mod live;
 pub mod lockstep;
 mod payload_fields;
 pub mod profile;
@@ -46,7 +49,9 @@ pub mod writer;
 
 pub use profile::{ProfileError, ProfileOptions, ProfileReport, profile, profile_with};
 pub use reader::{ChannelInfo, FileAttachment, FileMessage, ReadError, RecordFile};
-pub use record::{RecordSummary, RecorderOptions, run_recorder, run_recorder_with};
+pub use record::{
+    RecordSummary, RecorderOptions, run_recorder, run_recorder_live, run_recorder_with,
+};
 pub use render::{RenderError, RenderOptions, RenderSummary, render, render_file};
 pub use replay::{ReplayError, ReplayOptions, ReplaySummary, replay};
 pub use writer::{Compression, RecordWriter, WriteError, WriterOptions};

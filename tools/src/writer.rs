@@ -173,7 +173,12 @@ impl<W: Write + Seek> RecordWriter<W> {
         for topic in ViewerTopic::ALL {
             let schema = topic.schema().ok_or(WriteError::NoSchema(topic.topic()))?;
             let sid = mcap.add_schema(&schema.name, &schema.encoding, &schema.data)?;
-            viewer.push(mcap.add_channel(sid, topic.topic(), "protobuf", &BTreeMap::new())?);
+            viewer.push(mcap.add_channel(
+                sid,
+                topic.topic(),
+                topic.encoding(),
+                &BTreeMap::new(),
+            )?);
         }
         Ok(Self {
             mcap,

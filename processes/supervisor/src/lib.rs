@@ -32,6 +32,7 @@ pub mod export_cli;
 pub mod gen_cli;
 pub mod inspect_cli;
 pub mod launch;
+pub mod live_cli;
 pub mod mission;
 pub mod nodes;
 pub mod profile_cli;

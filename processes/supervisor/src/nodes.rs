@@ -26,6 +26,8 @@ pub struct NodeOptions {
     pub restarted: bool,
     /// The recorder's output file.
     pub out: Option<PathBuf>,
+    /// The recorder serves the live view here.
+    pub foxglove: Option<std::net::SocketAddr>,
     /// A recorder runs (the simulator waits for it in lockstep).
     pub recorded: bool,
     /// Fault injection for tests: fail at start, every time.
@@ -88,12 +90,13 @@ pub fn main(cmd: NodeOptions) -> ExitCode {
         NodeKind::Mapper => aisle_mapper::node::run(&args),
         NodeKind::GlobalPlanner => aisle_global_planner::node::run(&args),
         NodeKind::TebController => aisle_teb_controller::node::run(&args),
-        NodeKind::Recorder => match &out {
-            Some(out) => aisle_tools::record::run_recorder(&args, out),
-            None => {
-                eprintln!("error: recorder: --out <file> is required");
+        NodeKind::Recorder => match (&out, cmd.foxglove) {
+            (Some(out), None) => aisle_tools::record::run_recorder(&args, out),
+            (None, None) => {
+                eprintln!("error: recorder: --out <file> or --foxglove <addr> is required");
                 return ExitCode::from(2);
             }
+            (out, Some(addr)) => live_recorder(&args, out.as_deref(), addr),
         },
         _ => unreachable!("filtered above"),
     };
@@ -105,4 +108,25 @@ pub fn main(cmd: NodeOptions) -> ExitCode {
             ExitCode::from(1)
         }
     }
+}
+
+/// The recorder with the live view: records to `out` when given, serves at `addr`, and
+/// says at the end what the live view served and dropped.
+fn live_recorder(
+    args: &NodeArgs,
+    out: Option<&std::path::Path>,
+    addr: std::net::SocketAddr,
+) -> Result<(), NodeError> {
+    let options = aisle_tools::RecorderOptions {
+        live: Some(addr),
+        ..Default::default()
+    };
+    let summary = aisle_tools::run_recorder_live(args, out, &options)?;
+    if let Some(live) = summary.live {
+        eprintln!(
+            "foxglove live view ws://{addr}: {} messages served, {} dropped (the server fell behind)",
+            live.served, live.dropped
+        );
+    }
+    Ok(())
 }

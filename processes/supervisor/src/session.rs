@@ -54,6 +54,8 @@ pub struct RunOptions {
     pub record: Option<PathBuf>,
     /// Write every latency sample to this CSV file.
     pub samples: Option<PathBuf>,
+    /// Serve the run live over the Foxglove WebSocket protocol here (`--foxglove`).
+    pub foxglove: Option<std::net::SocketAddr>,
 }
 
 pub struct RunOutcome {

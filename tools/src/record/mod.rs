@@ -25,6 +25,7 @@ mod write;
 pub use run_info::config_files;
 
 use crate::catalog::services;
+use crate::live::LiveSummary;
 use crate::raw_ports::{RawSource, open_source};
 use crate::viewer::ViewerOptions;
 use crate::writer::WriterOptions;
@@ -36,6 +37,7 @@ use drain::{DrainPorts, drain};
 use log_clock::LogClock;
 use run_info::{loss_metadata, queue_run_info};
 use std::collections::BTreeMap;
+use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 use write::{Job, WriterThread};
@@ -56,6 +58,8 @@ pub struct RecorderOptions {
     /// Finalise once no other process published anything for this long (a recorder
     /// attached to a running group ends with it); `None`: only on a stop request.
     pub idle_stop: Option<Duration>,
+    /// Serve the viewer channels live over the Foxglove WebSocket protocol here.
+    pub live: Option<SocketAddr>,
 }
 
 impl Default for RecorderOptions {
@@ -67,6 +71,7 @@ impl Default for RecorderOptions {
             flush_period: Duration::from_secs(1),
             poll_period: Duration::from_millis(1),
             idle_stop: None,
+            live: None,
         }
     }
 }
@@ -84,6 +89,8 @@ pub struct RecordSummary {
     pub lost_in_queue: BTreeMap<&'static str, u64>,
     pub viewer_messages: u64,
     pub attachments: u64,
+    /// What the live view served and dropped, when there was one.
+    pub live: Option<LiveSummary>,
 }
 
 impl RecordSummary {
@@ -111,6 +118,24 @@ pub fn run_recorder(args: &NodeArgs, out: &Path) -> Result<(), NodeError> {
 pub fn run_recorder_with(
     args: &NodeArgs,
     out: &Path,
+    options: &RecorderOptions,
+) -> Result<RecordSummary, NodeError> {
+    record(args, Some(out), options)
+}
+
+/// The recorder node serving the live view (`options.live`), writing `out` when given;
+/// returns what it recorded and served.
+pub fn run_recorder_live(
+    args: &NodeArgs,
+    out: Option<&Path>,
+    options: &RecorderOptions,
+) -> Result<RecordSummary, NodeError> {
+    record(args, out, options)
+}
+
+fn record(
+    args: &NodeArgs,
+    out: Option<&Path>,
     options: &RecorderOptions,
 ) -> Result<RecordSummary, NodeError> {
     // Joining: the graph's answer rule, the bus, one subscriber per topic.
@@ -142,7 +167,7 @@ pub fn run_recorder_with(
 
     // Recording until the end.
     let mut summary = RecordSummary {
-        path: out.to_path_buf(),
+        path: out.map(Path::to_path_buf).unwrap_or_default(),
         ..RecordSummary::default()
     };
     let ports = DrainPorts {
@@ -168,10 +193,11 @@ pub fn run_recorder_with(
     let _ = writer
         .jobs
         .send(Job::Metadata("aisle.recorder".into(), stats));
-    let written = writer.finish(out)?;
-    summary.written = written.raw;
-    summary.viewer_messages = written.viewer;
-    summary.attachments = written.attachments;
+    let written = writer.finish(&summary.path)?;
+    summary.written = written.counts.raw;
+    summary.viewer_messages = written.counts.viewer;
+    summary.attachments = written.counts.attachments;
+    summary.live = written.live;
     if summary.lost() > 0 {
         tracing::warn!(
             "recorder: lost {} samples (bus: {:?}, queue: {:?})",

@@ -2,18 +2,24 @@
 //! with their viewer conversions, the run's metadata and attachments, and flushes a
 //! chunk every flush period.
 //!
+//! With a live view (`--foxglove`) the converted viewer messages also go to the
+//! [`LiveServer`] (which never blocks); without a file (a live view alone) nothing is
+//! written but the conversion still runs.
+//!
 //! Knows the file layout (through [`RecordWriter`]) and the viewer; not the bus. Buffers
 //! go back to the drain once written, so the node thread rarely allocates.
 
 use super::RecorderOptions;
 use super::log_clock::LogClock;
 use crate::aligned::AlignedBuf;
+use crate::live::{LiveError, LiveServer, LiveSummary};
 use crate::viewer::{ViewerConverter, ViewerOptions};
 use crate::writer::{RecordWriter, WriteCounts, WriteError};
 use aisle_bus::{NodeError, clock};
 use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::BufWriter;
+use std::net::SocketAddr;
 use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -45,26 +51,33 @@ pub(super) struct WriterThread {
     pub free: mpsc::Receiver<(usize, AlignedBuf)>,
     /// Payload bytes queued and not written yet.
     pub queued: Arc<AtomicUsize>,
-    thread: JoinHandle<Result<WriteCounts, WriteError>>,
+    thread: JoinHandle<Result<Written, WriteError>>,
+}
+
+/// What the writer thread wrote and served.
+pub(super) struct Written {
+    pub counts: WriteCounts,
+    pub live: Option<LiveSummary>,
 }
 
 impl WriterThread {
-    /// Creates `out` and starts writing into it; `names[i]` is the service of source i.
+    /// Creates `out` (when given) and starts writing into it, and serves the live view
+    /// when the options ask for one; `names[i]` is the service of source i.
     pub(super) fn start(
-        out: &Path,
+        out: Option<&Path>,
         options: &RecorderOptions,
         names: &[&'static str],
         clock: LogClock,
     ) -> Result<WriterThread, NodeError> {
-        let file = File::create(out)
-            .map_err(|e| NodeError::setup(format!("recorder: output {}", out.display()), e))?;
-        let writer = RecordWriter::new(BufWriter::with_capacity(1 << 20, file), options.writer)
-            .map_err(|e| NodeError::setup(format!("recorder: output {}", out.display()), e))?;
+        let writer = out.map(|out| create(out, options)).transpose()?;
+        let (ready_tx, ready) = mpsc::sync_channel(1);
         let (jobs, job_rx) = mpsc::channel::<Job>();
         let (free_tx, free_rx) = mpsc::channel::<(usize, AlignedBuf)>();
         let queued = Arc::new(AtomicUsize::new(0));
         let write = WriteLoop {
             writer,
+            live: options.live,
+            ready: ready_tx,
             jobs: job_rx,
             free: free_tx,
             queued: queued.clone(),
@@ -77,6 +90,17 @@ impl WriterThread {
             .name("recorder-writer".into())
             .spawn(move || write.run())
             .map_err(|e| NodeError::setup("recorder: writer thread", e))?;
+        // The live view starts in the writer thread (so the server's threads inherit its
+        // idle priority); a bad address is a setup error before the node is ready.
+        match ready.recv() {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => return Err(NodeError::setup("recorder", e)),
+            Err(_) => {
+                return Err(NodeError::Protocol(
+                    "recorder: the writer thread ended at its start".into(),
+                ));
+            }
+        }
         Ok(WriterThread {
             jobs,
             free: free_rx,
@@ -85,8 +109,8 @@ impl WriterThread {
         })
     }
 
-    /// Closes the queue and waits until the file is finalised.
-    pub(super) fn finish(self, out: &Path) -> Result<WriteCounts, NodeError> {
+    /// Closes the queue and waits until the file is finalised and the live view closed.
+    pub(super) fn finish(self, out: &Path) -> Result<Written, NodeError> {
         let WriterThread { jobs, thread, .. } = self;
         drop(jobs);
         thread
@@ -96,9 +120,24 @@ impl WriterThread {
     }
 }
 
+/// Creates the record file and its writer.
+fn create(out: &Path, options: &RecorderOptions) -> Result<RecordWriter<Output>, NodeError> {
+    let file = File::create(out)
+        .map_err(|e| NodeError::setup(format!("recorder: output {}", out.display()), e))?;
+    RecordWriter::new(BufWriter::with_capacity(1 << 20, file), options.writer)
+        .map_err(|e| NodeError::setup(format!("recorder: output {}", out.display()), e))
+}
+
+type Output = BufWriter<File>;
+
 /// The writer thread's state.
 struct WriteLoop<W: std::io::Write + std::io::Seek> {
-    writer: RecordWriter<W>,
+    /// The record file; `None` for a live view alone.
+    writer: Option<RecordWriter<W>>,
+    /// Where to serve the live view, if anywhere.
+    live: Option<SocketAddr>,
+    /// Told once the live view serves (or could not start).
+    ready: mpsc::SyncSender<Result<(), LiveError>>,
     jobs: mpsc::Receiver<Job>,
     free: mpsc::Sender<(usize, AlignedBuf)>,
     queued: Arc<AtomicUsize>,
@@ -128,10 +167,12 @@ fn run_only_when_idle() {
 }
 
 impl<W: std::io::Write + std::io::Seek> WriteLoop<W> {
-    fn run(self) -> Result<WriteCounts, WriteError> {
+    fn run(self) -> Result<Written, WriteError> {
         run_only_when_idle();
         let WriteLoop {
             mut writer,
+            live,
+            ready,
             jobs,
             free,
             queued,
@@ -140,6 +181,20 @@ impl<W: std::io::Write + std::io::Seek> WriteLoop<W> {
             mut clock,
             flush_period_ns,
         } = self;
+        let mut live = match live.map(LiveServer::start).transpose() {
+            Ok(live) => live,
+            Err(e) => {
+                let _ = ready.send(Err(e));
+                return Ok(Written {
+                    counts: WriteCounts::default(),
+                    live: None,
+                });
+            }
+        };
+        if let Some(l) = &live {
+            tracing::info!("recorder: serving the live view on ws://{}", l.addr());
+        }
+        let _ = ready.send(Ok(()));
         let mut viewer = ViewerConverter::new(viewer);
         let mut converted = Vec::new();
         let mut full = AlignedBuf::new();
@@ -155,28 +210,50 @@ impl<W: std::io::Write + std::io::Seek> WriteLoop<W> {
                     queued.fetch_sub(buf.len(), Ordering::Relaxed);
                     full.set_padded(buf.bytes(), full_len);
                     let log_time = clock.of_payload(log_time, full.bytes());
-                    writer.write_raw_at(index, log_time, full.bytes())?;
+                    if let Some(w) = &mut writer {
+                        w.write_raw_at(index, log_time, full.bytes())?;
+                    }
                     converted.clear();
                     viewer.convert(names[index], &full, &mut converted);
                     for m in &converted {
-                        writer.write_viewer(m, log_time)?;
+                        if let Some(l) = &mut live {
+                            l.offer(m, log_time);
+                        }
+                        if let Some(w) = &mut writer {
+                            w.write_viewer(m, log_time)?;
+                        }
                     }
                     let _ = free.send((index, buf));
                 }
-                Job::Metadata(name, entries) => writer.write_metadata(&name, entries)?,
+                Job::Metadata(name, entries) => {
+                    if let Some(w) = &mut writer {
+                        w.write_metadata(&name, entries)?
+                    }
+                }
                 Job::Attach {
                     name,
                     media_type,
                     data,
                     time,
-                } => writer.attach(&name, media_type, &data, clock.of_event(time))?,
+                } => {
+                    if let Some(w) = &mut writer {
+                        w.attach(&name, media_type, &data, clock.of_event(time))?
+                    }
+                }
             }
             let now = clock::monotonic_ns();
             if now.saturating_sub(last_flush) >= flush_period_ns {
-                writer.flush()?;
+                if let Some(w) = &mut writer {
+                    w.flush()?;
+                }
                 last_flush = now;
             }
         }
-        Ok(writer.finish()?.1)
+        let live = live.map(LiveServer::finish);
+        let counts = match writer {
+            Some(w) => w.finish()?.1,
+            None => WriteCounts::default(),
+        };
+        Ok(Written { counts, live })
     }
 }

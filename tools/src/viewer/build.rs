@@ -49,10 +49,28 @@ pub(super) fn grid(m: &OccupancyGrid) -> Option<fg::Grid> {
         fields: vec![fg::PackedElementField {
             name: "occupancy".into(),
             offset: 0,
-            r#type: fg::packed_element_field::NumericType::Uint8 as i32,
+            r#type: fg::packed_element_field::NumericType::Int8 as i32,
         }],
-        data: m.cells[..w * h].to_vec().into(),
+        data: m.cells[..w * h]
+            .iter()
+            .map(|&c| ros_occupancy(c) as u8)
+            .collect::<Vec<u8>>()
+            .into(),
     })
+}
+
+/// A cell of an aisle grid in the ROS `nav_msgs/OccupancyGrid` convention, which
+/// Foxglove's grid colour modes and ROS users read: free 0, a static obstacle 100
+/// (lethal), an obstacle the lidar detected 99 (so the two stay apart), any other
+/// value -1 (unknown).
+pub(super) fn ros_occupancy(cell: u8) -> i8 {
+    use aisle_geometry::{FREE, OCCUPIED_DETECTED, OCCUPIED_STATIC};
+    match cell {
+        FREE => 0,
+        OCCUPIED_STATIC => 100,
+        OCCUPIED_DETECTED => 99,
+        _ => -1,
+    }
 }
 
 pub(super) fn log(

@@ -1,6 +1,11 @@
 //! Turns recorded aisle messages into Foxglove's well-known protobuf messages, so a run
 //! opens in Foxglove or Lichtblick with the scene in 3D.
 //!
+//! Grids (`/viz/map/global`, `/viz/map/local`, `foxglove.Grid`, one `int8` field
+//! `occupancy`, row-major from the origin cell) hold the ROS `nav_msgs/OccupancyGrid`
+//! values: 0 free, 100 a static obstacle, 99 an obstacle the lidar detected, -1 unknown
+//! (the bus's grids hold 0, 1, 2: `aisle_geometry::grid`).
+//!
 //! Frames: `map` (the map frame), `base_link` (the robot base) and `sensor` (the lidar).
 //! Every viewer message is stamped with the simulated time of the message it came from.
 //! The converter keeps a little state so it emits only what changed (scene, logs) and
@@ -73,6 +78,11 @@ impl ViewerTopic {
         }
     }
 
+    /// The message encoding of the channel.
+    pub fn encoding(self) -> &'static str {
+        "protobuf"
+    }
+
     pub fn index(self) -> usize {
         self as usize
     }
@@ -126,14 +136,15 @@ mod tests {
         g.resolution = 0.1;
         g.origin_x = -5.0;
         g.origin_y = -10.0;
-        g.cells[..6].copy_from_slice(&[0, 1, 2, 0, 0, 1]);
+        g.cells[..6].copy_from_slice(&[0, 1, 2, 0, 7, 1]);
         g.header.stamp_ns = 1_500_000_000;
         let mut out = Vec::new();
         ViewerConverter::default().convert(s::GLOBAL_MAP, &buf(&*g), &mut out);
         assert_eq!(out.len(), 1);
         let d = fg::Grid::decode(out[0].data.as_slice()).unwrap();
         assert_eq!(d.column_count, 3);
-        assert_eq!(&d.data[..], &[0, 1, 2, 0, 0, 1]);
+        // ROS values: free 0, static 100, detected 99, unknown -1.
+        assert_eq!(&d.data[..], &[0, 100, 99, 0, 0xff, 100]);
         assert_eq!(d.timestamp, Some(fg::Timestamp::new(1, 500_000_000)));
         let pos = d.pose.unwrap().position.unwrap();
         assert_eq!((pos.x, pos.y), (-5.0, -10.0));

@@ -40,6 +40,8 @@ pub struct RunArgs {
     /// Record every service to this MCAP file (raw payloads plus Foxglove channels).
     #[arg(long)]
     pub record: Option<PathBuf>,
+    #[command(flatten)]
+    pub live: crate::live_cli::LiveArgs,
     /// Write every latency sample to this CSV file (stage, tick, ms).
     #[arg(long)]
     pub samples: Option<PathBuf>,
@@ -151,9 +153,8 @@ pub struct NodeCmd {
     /// This node replaces one that died: resume from its published state.
     #[arg(long)]
     pub restarted: bool,
-    /// The recorder's output file.
-    #[arg(long)]
-    pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub recorder: crate::live_cli::RecorderArgs,
     /// A recorder runs (the simulator waits for it in lockstep).
     #[arg(long)]
     pub recorded: bool,
@@ -181,6 +182,7 @@ impl RunArgs {
             mission: args.mission,
             kill: args.kill,
             record: args.record,
+            foxglove: args.live.foxglove,
             samples: args.samples,
             crash_on_start: args.crash_on_start,
         }
@@ -234,7 +236,8 @@ impl From<NodeCmd> for NodeOptions {
             start: cmd.start,
             lidar_off: cmd.lidar_off,
             restarted: cmd.restarted,
-            out: cmd.out,
+            out: cmd.recorder.out,
+            foxglove: cmd.recorder.foxglove,
             recorded: cmd.recorded,
             fail_on_start: cmd.fail_on_start,
         }

@@ -164,9 +164,15 @@ fn launch_group(
         Some(p) if p.is_relative() => Some(std::env::current_dir()?.join(p)),
         other => other.clone(),
     };
+    // A live view (`--foxglove`) is served by the recorder, with or without a file.
+    let live = opts.foxglove;
+    let recorder = record.is_some() || live.is_some();
     let mut expected: Vec<NodeKind> = config.graph.launched().collect();
-    if record.is_some() {
+    if recorder {
         expected.push(NodeKind::Recorder);
+    }
+    if let Some(addr) = live {
+        tracing::info!("live view: open ws://{addr} in Foxglove or Lichtblick");
     }
     let extra = move |kind: NodeKind| -> Vec<String> {
         let mut v = vec![
@@ -182,8 +188,13 @@ fn launch_group(
         if crash.as_deref() == Some(kind.name()) {
             v.push("--fail-on-start".into());
         }
-        if kind == NodeKind::Simulator && record.is_some() {
+        if kind == NodeKind::Simulator && recorder {
             v.push("--recorded".into());
+        }
+        if kind == NodeKind::Recorder
+            && let Some(addr) = live
+        {
+            v.push(format!("--foxglove={addr}"));
         }
         if kind == NodeKind::Recorder
             && let Some(out) = &record
