@@ -48,6 +48,12 @@ pub struct ObstacleConfig {
     /// Ignored rectangles (robot, carried rack, rack being approached) grow by this on
     /// every side, metres, so range noise on their own edges is not taken for obstacles.
     pub ignore_margin: f64,
+    /// A ray clears a detection only where it passes within this distance, metres, of
+    /// the return that marked it (the ray passes through where the obstacle was seen).
+    /// A cell holding a wall's face is only partly free: a ray grazing along the face
+    /// crosses the cell without hitting anything, and clearing on "crosses the cell"
+    /// erased walls the robot had seen and later backed into.
+    pub clear_radius: f64,
 }
 
 impl Default for ObstacleConfig {
@@ -56,6 +62,7 @@ impl Default for ObstacleConfig {
             height_band: [0.05, 1.2],
             max_range: 12.0,
             ignore_margin: 0.05,
+            clear_radius: 0.01,
         }
     }
 }
@@ -174,6 +181,17 @@ impl Validate for MapConfig {
         interval("obstacles.height_band", self.obstacles.height_band)?;
         positive("obstacles.max_range", self.obstacles.max_range)?;
         non_negative("obstacles.ignore_margin", self.obstacles.ignore_margin)?;
+        positive("obstacles.clear_radius", self.obstacles.clear_radius)?;
+        if self.obstacles.clear_radius >= 0.5 * self.resolution() {
+            return Err(invalid(
+                "obstacles.clear_radius",
+                format!(
+                    "{} m is not under half a cell ({} m): a ray would clear returns in cells it never crosses",
+                    self.obstacles.clear_radius,
+                    0.5 * self.resolution()
+                ),
+            ));
+        }
         Ok(())
     }
 
@@ -226,6 +244,10 @@ mod tests {
         std::fs::write(&path, "cells_per_metre = 10.25\n").unwrap();
         let e = load::<MapConfig>(&path).unwrap_err().to_string();
         assert!(e.contains("key `size`"), "{e}");
+        std::fs::write(&path, "[obstacles]\nclear_radius = 0.05\n").unwrap();
+        let e = load::<MapConfig>(&path).unwrap_err().to_string();
+        assert!(e.contains("obstacles.clear_radius"), "{e}");
+        assert!(e.contains("half a cell"), "{e}");
         std::fs::write(&path, "cell_per_metre = 10.0\n").unwrap();
         let e = load::<MapConfig>(&path).unwrap_err().to_string();
         assert!(e.contains("mapper.toml:1:"), "{e}");

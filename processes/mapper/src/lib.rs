@@ -37,8 +37,6 @@ mod mapper;
 pub mod node;
 pub mod obstacle_layer;
 mod placed;
-#[cfg(test)]
-mod ray;
 pub mod ros_map;
 pub mod static_map;
 pub mod synthetic;

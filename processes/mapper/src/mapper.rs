@@ -72,11 +72,13 @@ impl Mapper {
                 max: MAX_GRID_SIDE,
             });
         }
+        let mut layer = ObstacleLayer::new(&cfg.obstacles, beams)?;
+        layer.prepare(&static_map);
         Ok(Self {
             global: static_map.clone(),
             placed: PlacedLayer::new(static_map.clone()),
             static_map,
-            layer: ObstacleLayer::new(&cfg.obstacles, beams)?,
+            layer,
             local_side,
             version: 0,
         })

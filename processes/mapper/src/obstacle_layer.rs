@@ -8,10 +8,12 @@
 //! 1. **Clear.** In every azimuth column only the *lowest* ray in the world (the row
 //!    whose world direction has the smallest vertical component; row 0 = 0 deg for the
 //!    seed's level lidar) clears. Its 2D projection clears from the sensor to just
-//!    before its hit cell, or to `max_range` along the ray when it has no return, and
-//!    only over the part of the ray that lies inside the obstacle height band. Detected
-//!    cells on the way become free; static cells are never touched. Only detected
-//!    cells are visited (the private `clearing` module), not every cell of every ray.
+//!    before its return, or to `max_range` along the ray when it has none, and only over
+//!    the part of the ray that lies inside the obstacle height band. A detection on the
+//!    way becomes free when the ray passes through the return that marked it (within
+//!    `clear_radius`) and crosses the surface that return is part of, rather than
+//!    running along it (the private `clearing` module says why); static cells are never
+//!    touched. Only detected cells are visited, not every cell of every ray.
 //!    *Why the lowest ray only:* a ray proves a column empty only at its own height. A
 //!    higher ray passing over a low obstacle (a 0.9 m pallet stack seen by the rows below)
 //!    would erase it, and would erase anything hidden behind it. The lowest ray passes
@@ -33,7 +35,7 @@
 //! lowest ray crosses them. The update allocates nothing: the beam and ray tables are built once.
 //! Knows nothing of the bus, the scene or how the map is published.
 
-use crate::clearing::{Flagged, PENDING_CLEAR, RayClearing};
+use crate::clearing::{CELL_CENTRE, Flagged, PENDING_CLEAR, RayClearing, Sighting, sighting};
 use crate::cloud::{BeamGeometry, OrganizedCloud, SensorPose};
 use crate::config::ObstacleConfig;
 use crate::error::MapError;
@@ -122,6 +124,10 @@ pub struct ObstacleLayer {
     sin_az: Vec<f32>,
     /// Per-scan ray tables, reused so an update allocates nothing.
     clearing: RayClearing,
+    /// Per grid cell, where the return that last marked it lies in the cell: a ray
+    /// clears a detection only by passing through that return. Sized on the first
+    /// update (the grid's size never changes).
+    seen: Vec<Sighting>,
 }
 
 impl ObstacleLayer {
@@ -137,7 +143,18 @@ impl ObstacleLayer {
             cos_az: az.iter().map(|a| a.cos() as f32).collect(),
             sin_az: az.iter().map(|a| a.sin() as f32).collect(),
             clearing: RayClearing::new(beams.cols),
+            seen: Vec::new(),
         })
+    }
+
+    /// Sizes the layer's per-cell tables for `grid`, so that updates allocate nothing
+    /// (an update does it too, once, when not done before). Detections already in the
+    /// grid count as seen at their cells' centres.
+    pub fn prepare(&mut self, grid: &GridMap) {
+        if self.seen.len() != grid.cells.len() {
+            self.seen.clear();
+            self.seen.resize(grid.cells.len(), CELL_CENTRE);
+        }
     }
 
     pub fn beams(&self) -> &BeamGeometry {
@@ -179,6 +196,7 @@ impl ObstacleLayer {
         let n_zones = self.zones(scan, &frame, &mut zones)?;
         let zones = &zones[..n_zones];
 
+        self.prepare(grid);
         let mut stats = ScanStats::default();
         let mut flagged = Flagged::NONE;
         self.clear_along_lowest_rays(grid, scan, &frame, &mut flagged);
@@ -247,7 +265,8 @@ impl ObstacleLayer {
         let (w, h) = (grid.width, grid.height);
         let cols = self.beams.cols;
         let r = f.rot;
-        self.clearing.begin((f.sensor[0], f.sensor[1]));
+        let radius = (self.cfg.clear_radius * f.inv_res) as f32;
+        self.clearing.begin((f.sensor[0], f.sensor[1]), radius);
         for c in 0..cols {
             let (ca, sa) = (self.cos_az[c], self.sin_az[c]);
             // World z of beam (row, c) is cos_el * k + r[2][2] * sin_el.
@@ -288,11 +307,12 @@ impl ObstacleLayer {
             }
             self.clearing.set(c, (end[0], end[1]), ta, tb, hit);
         }
-        self.clearing.apply(&mut grid.cells, w, h, flagged);
+        self.clearing
+            .apply(&mut grid.cells, &self.seen, w, h, flagged);
     }
 
     fn mark(
-        &self,
+        &mut self,
         grid: &mut GridMap,
         cloud: &OrganizedCloud<'_>,
         f: &GridFrame,
@@ -330,6 +350,9 @@ impl ObstacleLayer {
                 }
                 PENDING_CLEAR => cells[i] = OCCUPIED_DETECTED,
                 _ => {}
+            }
+            if cells[i] == OCCUPIED_DETECTED {
+                self.seen[i] = sighting(gx, gy);
             }
         }
     }
@@ -498,6 +521,54 @@ mod tests {
         assert_eq!(detected(&g), 0);
         assert_eq!(s.cleared as usize, seen);
         assert_eq!(s.returns, 0);
+    }
+
+    /// A barrier seen head-on, then passed close along its face: the rays that graze the
+    /// face cross the cells holding it without a hit, and must not erase it (a sweep's
+    /// robot backed into a barrier lost that way).
+    #[test]
+    fn a_face_passed_close_along_stays_detected() {
+        let mut l = layer();
+        let mut g = grid();
+        let barrier = WorldBox::standing(6.783, 8.0, 0.0, [0.3, 1.866, 0.92]);
+        let head_on = Pose2::new(9.0, 8.0, std::f64::consts::PI);
+        l.update(&mut g, &scan_of(&cast(&[barrier], head_on), head_on, &[]))
+            .unwrap();
+        let face: Vec<usize> = (0..g.cells.len())
+            .filter(|&i| g.cells[i] == OCCUPIED_DETECTED)
+            .collect();
+        assert!(
+            face.len() >= 18,
+            "the face spans 19 cells, {} seen",
+            face.len()
+        );
+        // North of it, the sensor 0.05-0.25 m out from the face's line, looking back
+        // along it (as the robot that lost one did).
+        for k in 0..6 {
+            let y = 10.5 - 0.25 * k as f64;
+            for x in [7.1, 7.2, 7.3, 7.4] {
+                for heading in [2.64, 2.3] {
+                    let pose = Pose2::new(x, y, heading);
+                    let cloud = cast(&[barrier], pose);
+                    l.update(&mut g, &scan_of(&cloud, pose, &[])).unwrap();
+                    for &i in &face {
+                        if g.cells[i] != OCCUPIED_DETECTED {
+                            eprintln!(
+                                "lost {} {} at {pose:?} seen {:?}",
+                                i % g.width,
+                                i / g.width,
+                                l.seen[i]
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        let kept = face
+            .iter()
+            .filter(|&&i| g.cells[i] == OCCUPIED_DETECTED)
+            .count();
+        assert_eq!(kept, face.len(), "face cells lost");
     }
 
     #[test]
