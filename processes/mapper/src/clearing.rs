@@ -318,12 +318,15 @@ mod tests {
         }
     }
 
+    /// A ray for the brute-force check: unit direction, clearing stretch, return cell.
+    type TestRay = ((f32, f32), f32, f32, Option<(i64, i64)>);
+
     /// Whether any of `rays` (sensor, unit direction, clearing stretch, end cell)
     /// passes within `radius` of `p` between the stretch's ends: the closest point of
     /// the ray's line to `p` lies on the stretch (a radius short of a return).
     fn brute_force(
         sensor: (f32, f32),
-        rays: &[((f32, f32), f32, f32, Option<(i64, i64)>)],
+        rays: &[TestRay],
         radius: f32,
         cell: (i64, i64),
         p: (f32, f32),
