@@ -67,7 +67,9 @@ fn viewer_channels_carry_foxglove_schemas() {
     for m in file.messages() {
         let m = m.unwrap();
         if !m.channel.is_raw() {
-            assert_eq!(m.channel.message_encoding, "protobuf");
+            let json = m.channel.topic.starts_with("/plot/");
+            let encoding = if json { "json" } else { "protobuf" };
+            assert_eq!(m.channel.message_encoding, encoding, "{}", m.channel.topic);
             *topics
                 .entry((
                     m.channel.topic.clone(),
@@ -86,6 +88,10 @@ fn viewer_channels_carry_foxglove_schemas() {
         ("/viz/path/driven", "foxglove.PosesInFrame"),
         ("/tf", "foxglove.FrameTransforms"),
         ("/viz/log", "foxglove.Log"),
+        ("/plot/odometry", "aisle.plot.Odometry"),
+        ("/plot/cmd_vel", "aisle.plot.Command"),
+        ("/plot/teb", "aisle.plot.TebStep"),
+        ("/plot/latency", "aisle.plot.StageLatency"),
     ] {
         let n = topics.get(&(topic.to_string(), schema.to_string()));
         assert!(n.is_some_and(|n| *n > 0), "{topic} {schema}: {topics:?}");

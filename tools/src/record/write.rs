@@ -16,6 +16,7 @@ use crate::live::{LiveError, LiveServer, LiveSummary};
 use crate::viewer::{ViewerConverter, ViewerOptions};
 use crate::writer::{RecordWriter, WriteCounts, WriteError};
 use aisle_bus::{NodeError, clock};
+use aisle_robot::RobotModel;
 use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::BufWriter;
@@ -68,6 +69,7 @@ impl WriterThread {
         options: &RecorderOptions,
         names: &[&'static str],
         clock: LogClock,
+        robot: Option<RobotModel>,
     ) -> Result<WriterThread, NodeError> {
         let writer = out.map(|out| create(out, options)).transpose()?;
         let (ready_tx, ready) = mpsc::sync_channel(1);
@@ -83,6 +85,7 @@ impl WriterThread {
             queued: queued.clone(),
             names: names.to_vec(),
             viewer: options.viewer,
+            robot,
             clock,
             flush_period_ns: options.flush_period.as_nanos() as u64,
         };
@@ -143,6 +146,8 @@ struct WriteLoop<W: std::io::Write + std::io::Seek> {
     queued: Arc<AtomicUsize>,
     names: Vec<&'static str>,
     viewer: ViewerOptions,
+    /// The robot model the viewer channels show (`/viz/robot`), when it could be read.
+    robot: Option<RobotModel>,
     /// Maps receive times to `log_time`.
     clock: LogClock,
     flush_period_ns: u64,
@@ -178,6 +183,7 @@ impl<W: std::io::Write + std::io::Seek> WriteLoop<W> {
             queued,
             names,
             viewer,
+            robot,
             mut clock,
             flush_period_ns,
         } = self;
@@ -196,6 +202,9 @@ impl<W: std::io::Write + std::io::Seek> WriteLoop<W> {
         }
         let _ = ready.send(Ok(()));
         let mut viewer = ViewerConverter::new(viewer);
+        if let Some(model) = &robot {
+            viewer = viewer.with_robot(model);
+        }
         let mut converted = Vec::new();
         let mut full = AlignedBuf::new();
         let mut last_flush = clock::monotonic_ns();
@@ -213,7 +222,7 @@ impl<W: std::io::Write + std::io::Seek> WriteLoop<W> {
                     if let Some(w) = &mut writer {
                         w.write_raw_at(index, log_time, full.bytes())?;
                     }
-                    converted.clear();
+                    viewer.recycle(&mut converted);
                     viewer.convert(names[index], &full, &mut converted);
                     for m in &converted {
                         if let Some(l) = &mut live {
