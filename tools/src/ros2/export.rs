@@ -18,7 +18,7 @@ pub enum ExportError {
     #[error(transparent)]
     Read(#[from] ReadError),
     #[error(
-        "{path} is not an aisle record: it has no `aisle-raw` channel with a message \
+        "{path} is not an aisle record: it has no raw aisle channel with a message \
          (make one with `aisle run --record`)"
     )]
     NotARecord { path: PathBuf },
