@@ -13,7 +13,7 @@ use super::RecorderOptions;
 use super::log_clock::LogClock;
 use crate::aligned::AlignedBuf;
 use crate::live::{LiveError, LiveServer, LiveSummary};
-use crate::viewer::{ViewerConverter, ViewerOptions};
+use crate::viewer::{ViewerConverter, ViewerMessage, ViewerOptions};
 use crate::writer::{RecordWriter, WriteCounts, WriteError};
 use aisle_bus::{NodeError, clock};
 use aisle_robot::RobotModel;
@@ -208,6 +208,7 @@ impl<W: std::io::Write + std::io::Seek> WriteLoop<W> {
         let mut converted = Vec::new();
         let mut full = AlignedBuf::new();
         let mut last_flush = clock::monotonic_ns();
+        let mut last_log_time = 0;
         for job in jobs {
             match job {
                 Job::Raw {
@@ -219,19 +220,13 @@ impl<W: std::io::Write + std::io::Seek> WriteLoop<W> {
                     queued.fetch_sub(buf.len(), Ordering::Relaxed);
                     full.set_padded(buf.bytes(), full_len);
                     let log_time = clock.of_payload(log_time, full.bytes());
+                    last_log_time = log_time;
                     if let Some(w) = &mut writer {
                         w.write_raw_at(index, log_time, full.bytes())?;
                     }
                     viewer.recycle(&mut converted);
                     viewer.convert(names[index], &full, &mut converted);
-                    for m in &converted {
-                        if let Some(l) = &mut live {
-                            l.offer(m, log_time);
-                        }
-                        if let Some(w) = &mut writer {
-                            w.write_viewer(m, log_time)?;
-                        }
-                    }
+                    emit(&converted, live.as_mut(), writer.as_mut(), log_time)?;
                     let _ = free.send((index, buf));
                 }
                 Job::Metadata(name, entries) => {
@@ -258,6 +253,10 @@ impl<W: std::io::Write + std::io::Seek> WriteLoop<W> {
                 last_flush = now;
             }
         }
+        // The last tick's plot messages, held back until the next tick that never came.
+        viewer.recycle(&mut converted);
+        viewer.finish(&mut converted);
+        emit(&converted, live.as_mut(), writer.as_mut(), last_log_time)?;
         let live = live.map(LiveServer::finish);
         let counts = match writer {
             Some(w) => w.finish()?.1,
@@ -265,4 +264,22 @@ impl<W: std::io::Write + std::io::Seek> WriteLoop<W> {
         };
         Ok(Written { counts, live })
     }
+}
+
+/// Hands converted viewer messages to the live view (which never blocks) and the file.
+fn emit<W: std::io::Write + std::io::Seek>(
+    messages: &[ViewerMessage],
+    mut live: Option<&mut LiveServer>,
+    mut writer: Option<&mut RecordWriter<W>>,
+    log_time: u64,
+) -> Result<(), WriteError> {
+    for m in messages {
+        if let Some(l) = live.as_deref_mut() {
+            l.offer(m, log_time);
+        }
+        if let Some(w) = writer.as_deref_mut() {
+            w.write_viewer(m, log_time)?;
+        }
+    }
+    Ok(())
 }

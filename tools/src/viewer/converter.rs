@@ -69,6 +69,12 @@ impl ViewerConverter {
         }
     }
 
+    /// What is still held back at the end of the run (the last tick's latencies).
+    pub fn finish(&mut self, out: &mut Vec<ViewerMessage>) {
+        let done = self.latency.finish();
+        self.send_latency(done, out);
+    }
+
     fn buffer(&mut self) -> Vec<u8> {
         self.spare.pop().unwrap_or_default()
     }

@@ -382,6 +382,11 @@ mod tests {
         assert!(lat.get("mapper_ms").is_none(), "{lat}");
         conv.recycle(&mut out);
         assert!(out.is_empty());
+        // At the end of the run the last tick goes out too.
+        conv.finish(&mut out);
+        assert_eq!(out.len(), 1);
+        let last: serde_json::Value = serde_json::from_slice(&out[0].data).unwrap();
+        assert_eq!(last["header"]["tick"], 4, "{last}");
     }
 
     #[test]

@@ -197,7 +197,7 @@ pub(super) fn trajectory(
 
 /// Gathers the latencies of one tick from the stages' acknowledgements and the
 /// trajectory, and hands the tick over once a newer one starts (so its message lags
-/// one tick). A sample of a tick already handed over (a straggler, realtime only) is
+/// one tick; the last tick at the end of the run). A sample of a tick already handed over (a straggler, realtime only) is
 /// left out; the latency table (`aisle run`, `aisle profile`) still counts it.
 #[derive(Debug, Default)]
 pub(super) struct LatencyTicks {
@@ -243,6 +243,11 @@ impl LatencyTicks {
             *slot = Some(ms(d.compute_ns));
         }
         done
+    }
+
+    /// The tick still gathering, at the end of the run.
+    pub(super) fn finish(&mut self) -> Option<(u64, StageLatency)> {
+        self.pending.take()
     }
 
     /// A trajectory: end to end, when both wall times are known.
