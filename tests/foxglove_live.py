@@ -3,9 +3,11 @@
 
 Speaks the Foxglove WebSocket protocol (subprotocol `foxglove.sdk.v1` as the `foxglove`
 crate names it, or `foxglove.websocket.v1`) with the `websockets` package: reads the server's
-advertisements, subscribes to the scene, the lidar point cloud and the transforms (the
-robot state: map -> base_link), and decodes the binary message data with the protobuf
-schemas the server advertised (`google.protobuf`, from the FileDescriptorSet). Runs until
+advertisements, subscribes to the scene, the lidar point cloud, the transforms (the
+robot state: map -> base_link), the robot model and the odometry plot channel, and
+decodes the binary message data with the schemas the server advertised: protobuf
+(`google.protobuf`, from the FileDescriptorSet) or JSON (every field of a payload must be
+declared in the advertised JSON Schema). Runs until
 every topic has enough messages or the deadline passes; prints one JSON object and exits
 non-zero when something is missing, does not decode or is out of range.
 
@@ -25,7 +27,38 @@ WANTED = {
     "/viz/scene": ("foxglove.SceneUpdate", 1),
     "/viz/lidar/points": ("foxglove.PointCloud", 3),
     "/tf": ("foxglove.FrameTransforms", 3),
+    "/viz/robot": ("foxglove.SceneUpdate", 1),
+    "/plot/odometry": ("aisle.plot.Odometry", 3),
 }
+JSON_TOPICS = {"/plot/odometry"}
+
+
+def undeclared(value, schema, path=""):
+    """The fields of `value` its JSON Schema does not declare (recursively)."""
+    if not isinstance(value, dict):
+        return []
+    props = schema.get("properties", {})
+    out = []
+    for k, v in value.items():
+        if k not in props:
+            out.append(f"{path}.{k}")
+        else:
+            out.extend(undeclared(v, props[k], f"{path}.{k}"))
+    return out
+
+
+class JsonChannel:
+    """Decodes a JSON channel and checks each payload against its schema."""
+
+    def __init__(self, schema_text):
+        self.schema = json.loads(schema_text)
+
+    def decode(self, data):
+        value = json.loads(bytes(data).decode("utf-8"))
+        missing = undeclared(value, self.schema)
+        if missing:
+            raise ValueError(f"fields not in the schema: {missing}")
+        return value
 
 
 def message_class(schema_name, schema_b64):
@@ -41,6 +74,7 @@ async def watch(url, seconds, bounds):
     counts = {t: 0 for t in WANTED}
     problems = []
     poses = []
+    odometry = []
     cloud_points = 0
     subs = {}
     deadline = time.monotonic() + seconds
@@ -77,11 +111,19 @@ async def watch(url, seconds, bounds):
                     if topic not in WANTED or topic in [s[0] for s in subs.values()]:
                         continue
                     name = WANTED[topic][0]
-                    if ch.get("schemaName") != name or ch.get("encoding") != "protobuf":
-                        problems.append(f"{topic}: advertised as {ch.get('schemaName')}")
+                    encoding = "json" if topic in JSON_TOPICS else "protobuf"
+                    if ch.get("schemaName") != name or ch.get("encoding") != encoding:
+                        problems.append(
+                            f"{topic}: advertised as {ch.get('schemaName')} "
+                            f"({ch.get('encoding')})"
+                        )
                         continue
                     sub_id = len(subs) + 1
-                    subs[sub_id] = (topic, message_class(name, ch["schema"]))
+                    if encoding == "json":
+                        decode = JsonChannel(ch["schema"]).decode
+                    else:
+                        decode = message_class(name, ch["schema"]).FromString
+                    subs[sub_id] = (topic, decode)
                     new.append({"id": sub_id, "channelId": ch["id"]})
                 if new:
                     await ws.send(json.dumps({"op": "subscribe", "subscriptions": new}))
@@ -91,9 +133,9 @@ async def watch(url, seconds, bounds):
             sub_id, _recv_ns = struct.unpack_from("<IQ", frame, 1)
             if sub_id not in subs:
                 continue
-            topic, cls = subs[sub_id]
+            topic, decode = subs[sub_id]
             try:
-                m = cls.FromString(frame[13:])
+                m = decode(frame[13:])
             except Exception as e:  # noqa: BLE001 - any decode failure is a finding
                 problems.append(f"{topic}: {e}")
                 continue
@@ -109,6 +151,15 @@ async def watch(url, seconds, bounds):
                         poses.append((t.translation.x, t.translation.y))
             elif topic == "/viz/scene" and not m.entities:
                 problems.append("scene: no entities")
+            elif topic == "/viz/robot":
+                e = m.entities[0] if m.entities else None
+                if e is None or e.frame_id != "base_link" or not e.frame_locked or not e.cubes:
+                    problems.append(f"robot model: not a frame-locked base_link entity: {e}")
+            elif topic == "/plot/odometry":
+                x, y = m["x"], m["y"]
+                if not (xmin <= x <= xmax and ymin <= y <= ymax):
+                    problems.append(f"odometry outside the warehouse: {x}, {y}")
+                odometry.append((m["v"], m["w"]))
     for t, (_, need) in WANTED.items():
         if counts[t] < need:
             problems.append(f"{t}: {counts[t]} messages, wanted {need}")
@@ -124,6 +175,8 @@ async def watch(url, seconds, bounds):
         "cloud_points": cloud_points,
         "poses": len(poses),
         "first_pose": poses[0] if poses else None,
+        "odometry": len(odometry),
+        "max_turn_rate": max((abs(w) for _, w in odometry), default=None),
         "problems": problems,
     }
 

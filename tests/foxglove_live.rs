@@ -1,8 +1,10 @@
 //! The live view: `aisle run --realtime --foxglove 127.0.0.1:<port>` serves the Foxglove
 //! WebSocket protocol while the mission runs, and an independent client
 //! (`foxglove_live.py`: the `websockets` package and `google.protobuf`) subscribes to the
-//! scene, the point cloud and the transforms and decodes them with the advertised schemas:
-//! messages arrive, clouds have points, the robot's pose lies in the warehouse. The run
+//! scene, the point cloud, the transforms, the robot model (protobuf) and the odometry
+//! plot (JSON) and decodes them with the advertised schemas: messages arrive, clouds have
+//! points, the robot's pose lies in the warehouse, the robot model is a frame-locked
+//! `base_link` entity, every odometry field is in its JSON Schema. The run
 //! still succeeds and says at its end what the live view served and dropped.
 //!
 //! Skipped with a note when python3 lacks `websockets` or `protobuf`, unless

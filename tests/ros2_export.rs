@@ -5,7 +5,8 @@
 //! project's own reader into `expected.json` (and the clouds' and grids' bulk into two
 //! binary files). Skips, saying why, when `rosbags` is not installed, unless
 //! `AISLE_REQUIRE_PYTHON_SDK=1` (as `.ci/run` sets it: there it fails). Also: bad input
-//! (missing, not MCAP, not a record, output = input, output not writable) ends in exit 2.
+//! (missing, not MCAP, not a record, truncated, output = input, output not writable) ends
+//! in exit 2.
 
 mod support;
 
@@ -212,7 +213,12 @@ fn export_refuses_what_it_cannot_convert() {
     );
     let text = dir.path("notes.txt");
     std::fs::write(&text, "not an mcap").unwrap();
-    let cases: [(&Path, &Path, &str); 5] = [
+    // A record cut short (a recorder killed mid-write, a copy interrupted): bad input.
+    let bytes = std::fs::read(&record).unwrap();
+    let truncated = dir.path("truncated.mcap");
+    std::fs::write(&truncated, &bytes[..bytes.len() * 2 / 3]).unwrap();
+    let cases: [(&Path, &Path, &str); 6] = [
+        (&truncated, &dir.path("t.mcap"), "truncated.mcap"),
         (
             &dir.path("missing.mcap"),
             &dir.path("o.mcap"),

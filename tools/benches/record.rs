@@ -128,7 +128,7 @@ fn bench(c: &mut Criterion) {
                     }
                     t += 1000;
                     w.write_raw(svc, t, m.bytes()).unwrap();
-                    out.clear();
+                    conv.recycle(&mut out);
                     conv.convert(svc, m, &mut out);
                     for v in &out {
                         w.write_viewer(v, t).unwrap();

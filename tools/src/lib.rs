@@ -29,6 +29,7 @@ pub mod aligned;
 pub mod animate;
 pub mod catalog;
 pub mod diff;
+pub mod envelope;
 pub mod fonts;
 pub mod inspect;
 pub mod latency;

@@ -9,8 +9,10 @@
 //! queue and returns; when the queue is full the message is dropped and counted. A
 //! dedicated thread hands queued messages to the server, whose per-client outboxes drop
 //! the oldest messages for a client that reads too slowly (the crate logs that). The
-//! channels that change rarely (scene, global map, reference path) are latched: a client
-//! that subscribes late gets their newest message at once. Knows nothing of the bus or
+//! channels that change rarely (scene, global map, reference path, robot model:
+//! [`ViewerTopic::latched`]) are latched: a client that subscribes late gets their newest
+//! message at once. Each channel is declared with its topic's own encoding and schema
+//! (protobuf or JSON), as in the record. Knows nothing of the bus or
 //! of files.
 
 use crate::viewer::{ViewerMessage, ViewerTopic};
@@ -31,14 +33,6 @@ const QUEUE_MESSAGES: usize = 4096;
 /// Messages each client may have waiting in the server before the oldest are dropped.
 const CLIENT_BACKLOG: usize = 2048;
 
-/// The channels whose newest message a late subscriber gets at once.
-fn latched(topic: ViewerTopic) -> bool {
-    matches!(
-        topic,
-        ViewerTopic::Scene | ViewerTopic::GlobalMap | ViewerTopic::ReferencePath
-    )
-}
-
 /// The newest message of each latched channel, re-sent to whoever subscribes to it.
 #[derive(Default)]
 struct Latch {
@@ -48,7 +42,7 @@ struct Latch {
 
 impl Latch {
     fn keep(&self, msg: &ViewerMessage) {
-        if latched(msg.topic)
+        if msg.topic.latched()
             && let Ok(mut newest) = self.newest.lock()
         {
             newest[msg.topic.index()] = Some(msg.data.clone());

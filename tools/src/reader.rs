@@ -1,12 +1,14 @@
-//! Reads an aisle MCAP file: its messages in file order (raw payloads or viewer
-//! messages), its attachments and metadata, and where a damaged file stops being readable.
+//! Reads an aisle MCAP file: its messages in file order (raw payloads, out of their
+//! envelope, or viewer messages), its attachments and metadata, and where a damaged file
+//! stops being readable. Records written before the envelope (`aisle-raw` channels) read
+//! the same.
 //!
 //! The file is read into memory once. A truncated or corrupt file yields every message
 //! before the damage and then one [`ReadError::Damaged`] that says after which message
 //! and at which log time the readable part ends; nothing here panics on bad bytes.
 //! This module knows the file format, not the bus or what the payloads mean.
 
-use crate::writer::{RAW_ENCODING, TRIMMED_KEY};
+use crate::writer::{LEGACY_RAW_ENCODING, RAW_ENVELOPE, RAW_KEY, TRIMMED_KEY};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -43,9 +45,15 @@ pub struct ChannelInfo {
 }
 
 impl ChannelInfo {
-    /// True for the raw payload channels (one per service).
+    /// True for the raw payload channels (one per service): marked by their metadata,
+    /// or, in older records, by their own encoding.
     pub fn is_raw(&self) -> bool {
-        self.message_encoding == RAW_ENCODING
+        self.enveloped() || self.message_encoding == LEGACY_RAW_ENCODING
+    }
+
+    /// True when the raw payloads are stored in a protobuf envelope (`crate::envelope`).
+    pub fn enveloped(&self) -> bool {
+        self.meta(RAW_KEY) == Some(RAW_ENVELOPE)
     }
 
     pub fn meta(&self, key: &str) -> Option<&str> {
@@ -314,7 +322,14 @@ impl Messages<'_> {
                 if self.raw_only && !channel.is_raw() {
                     return Ok(Step::Skip);
                 }
-                let mut data = data.into_owned();
+                // The payload out of its envelope (a message that is not one is damage).
+                let mut data = if channel.enveloped() {
+                    crate::envelope::unwrap(&data)
+                        .map_err(|e| format!("{}: {e}", channel.topic))?
+                        .to_vec()
+                } else {
+                    data.into_owned()
+                };
                 if let Some(size) = channel.padded_size()
                     && data.len() < size
                 {

@@ -480,7 +480,7 @@ mod tests {
         let mut c = ChannelInfo {
             id: 1,
             topic: s::TRAJECTORY.to_string(),
-            message_encoding: crate::writer::RAW_ENCODING.into(),
+            message_encoding: crate::writer::LEGACY_RAW_ENCODING.into(),
             schema_name: None,
             metadata: BTreeMap::new(),
         };

@@ -67,7 +67,9 @@ fn viewer_channels_carry_foxglove_schemas() {
     for m in file.messages() {
         let m = m.unwrap();
         if !m.channel.is_raw() {
-            assert_eq!(m.channel.message_encoding, "protobuf");
+            let json = m.channel.topic.starts_with("/plot/");
+            let encoding = if json { "json" } else { "protobuf" };
+            assert_eq!(m.channel.message_encoding, encoding, "{}", m.channel.topic);
             *topics
                 .entry((
                     m.channel.topic.clone(),
@@ -86,6 +88,10 @@ fn viewer_channels_carry_foxglove_schemas() {
         ("/viz/path/driven", "foxglove.PosesInFrame"),
         ("/tf", "foxglove.FrameTransforms"),
         ("/viz/log", "foxglove.Log"),
+        ("/plot/odometry", "aisle.plot.Odometry"),
+        ("/plot/cmd_vel", "aisle.plot.Command"),
+        ("/plot/teb", "aisle.plot.TebStep"),
+        ("/plot/latency", "aisle.plot.StageLatency"),
     ] {
         let n = topics.get(&(topic.to_string(), schema.to_string()));
         assert!(n.is_some_and(|n| *n > 0), "{topic} {schema}: {topics:?}");
@@ -234,4 +240,51 @@ fn writing_is_deterministic() {
         synthetic_bytes(20, Compression::Zstd),
         synthetic_bytes(20, Compression::Zstd)
     );
+}
+
+/// A record written before the envelope (`aisle-raw` channels, payloads as they are)
+/// reads as it always did; an enveloped message that is not one is damage.
+#[test]
+fn older_records_without_the_envelope_still_read() {
+    use aisle_messages::topics::names as s;
+    let info = crate::catalog::service_info(s::TICK).unwrap();
+    let mut payload = vec![0u8; info.size];
+    payload[8] = 42;
+    let meta = |raw: bool| {
+        let mut m = std::collections::BTreeMap::from([
+            ("type_name".to_string(), info.type_name.to_string()),
+            ("size".to_string(), info.size.to_string()),
+        ]);
+        if raw {
+            m.insert("aisle_raw".into(), "protobuf_envelope".into());
+        }
+        m
+    };
+    let write = |encoding: &str, raw: bool, data: &[u8]| {
+        let mut w = mcap::Writer::new(Cursor::new(Vec::new())).unwrap();
+        let schema = w.add_schema(info.type_name, "x", b"").unwrap();
+        let ch = w
+            .add_channel(schema, s::TICK, encoding, &meta(raw))
+            .unwrap();
+        let header = mcap::records::MessageHeader {
+            channel_id: ch,
+            sequence: 0,
+            log_time: 5,
+            publish_time: 5,
+        };
+        w.write_to_known_channel(&header, data).unwrap();
+        w.finish().unwrap();
+        w.into_inner().into_inner()
+    };
+    let legacy = write(crate::writer::LEGACY_RAW_ENCODING, false, &payload);
+    let file = RecordFile::from_bytes(Path::new("old.mcap"), legacy).unwrap();
+    let got: Vec<_> = file.raw_messages().map(Result::unwrap).collect();
+    assert_eq!(got.len(), 1);
+    assert_eq!(got[0].data, payload);
+    // Marked as enveloped, but the bytes are not an envelope: damaged, naming the topic.
+    let bad = write("protobuf", true, &payload);
+    let file = RecordFile::from_bytes(Path::new("bad.mcap"), bad).unwrap();
+    let e = file.raw_messages().next().unwrap().unwrap_err();
+    assert!(matches!(e, ReadError::Damaged { .. }), "{e}");
+    assert!(e.to_string().contains(s::TICK), "{e}");
 }

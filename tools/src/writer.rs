@@ -1,13 +1,30 @@
 //! Writes an aisle MCAP file: one raw channel per service (payload bytes exactly as in
-//! shared memory), the Foxglove viewer channels, attachments and metadata.
+//! shared memory, in a protobuf envelope), the Foxglove viewer channels, attachments and
+//! metadata.
 //!
-//! Raw channels: message encoding [`RAW_ENCODING`], schema named by the message type
-//! (encoding [`LAYOUT_ENCODING`], data = a text listing of the field layout), channel
-//! metadata `type_name`, `size`, `align`, `layout_hash` (per type) and `schema_hash`
-//! (all types, as `aisle_messages::schema_hash_hex()`). Each message: `log_time` as the
-//! caller gives it (the recorder: sim time in lockstep, Unix receive time in realtime,
-//! see `record::log_clock`), `publish_time` = the header's `stamp_ns`, `sequence` = the header's `seq`
-//! (truncated to 32 bits). This module knows the file format, not the bus.
+//! Raw channels: message encoding `protobuf`, each payload inside a one-field message
+//! (`bytes data = 1`, [`crate::envelope`]) whose schema is named by the message type
+//! (a protobuf `FileDescriptorSet`), channel metadata [`RAW_KEY`] = [`RAW_ENVELOPE`]
+//! (what marks a raw channel), `type_name`, `size`, `align`, `layout_hash` (per type),
+//! `schema_hash` (all types, as `aisle_messages::schema_hash_hex()`) and `layout` (the
+//! field layout as text). Each message: `log_time` as the caller gives it (the recorder:
+//! sim time in lockstep, Unix receive time in realtime, see `record::log_clock`),
+//! `publish_time` = the header's `stamp_ns`, `sequence` = the header's `seq` (truncated
+//! to 32 bits). This module knows the file format, not the bus.
+//!
+//! Why the envelope: Foxglove and Lichtblick parse every channel of a file when it
+//! opens and report any encoding but `json`, `protobuf`, `flatbuffer`, `ros1` and `cdr`
+//! as a problem ("Unsupported encoding"), whatever the channel's metadata says
+//! (Lichtblick's `parseChannel`), so the raw channels, written with their own encoding
+//! `aisle-raw` before, showed as 18 problems. Moving them into a companion file would
+//! change every reader and split a run in two; an encoding Foxglove knows, with bytes
+//! that are not in it, would fail every decoder. The envelope is real protobuf (a
+//! viewer shows each raw message as one `data` bytes field) and costs two to four bytes
+//! a message; the reader strips it ([`crate::reader`]), and still reads records with
+//! the older `aisle-raw` channels ([`LEGACY_RAW_ENCODING`]).
+//!
+//! Viewer channels: each [`ViewerTopic`] with its own encoding and schema (Foxglove
+//! protobuf, or JSON with a JSON Schema for the plots).
 
 use crate::catalog::{ServiceInfo, services};
 use crate::payload_fields::{SEQ_AT, STAMP_AT, u64_at};
@@ -16,10 +33,13 @@ use mcap::records::MessageHeader;
 use std::collections::BTreeMap;
 use std::io::{Seek, Write};
 
-/// Message encoding of the raw channels.
-pub const RAW_ENCODING: &str = "aisle-raw";
-/// Schema encoding of the raw channels' layout description.
-pub const LAYOUT_ENCODING: &str = "aisle-layout";
+/// Message encoding of the raw channels: each payload in a protobuf envelope.
+pub const RAW_ENCODING: &str = "protobuf";
+/// Raw channel metadata key (and its value) that marks a raw channel.
+pub const RAW_KEY: &str = "aisle_raw";
+pub const RAW_ENVELOPE: &str = "protobuf_envelope";
+/// Message encoding of the raw channels of older records (payloads without envelope).
+pub const LEGACY_RAW_ENCODING: &str = "aisle-raw";
 /// The MCAP header profile.
 pub const PROFILE: &str = "aisle";
 /// Raw channel metadata key: `true` when payloads are stored without trailing zeros.
@@ -100,6 +120,8 @@ pub struct RecordWriter<W: Write + Seek> {
     viewer: Vec<u16>,
     counts: WriteCounts,
     trim: bool,
+    /// The envelope of the raw message being written, reused.
+    envelope: Vec<u8>,
 }
 
 /// Length of `bytes` without its trailing zeros (compares eight bytes at a time).
@@ -150,12 +172,11 @@ impl<W: Write + Seek> RecordWriter<W> {
         let schema_hash = aisle_messages::schema_hash_hex();
         let mut raw = Vec::new();
         for info in services() {
-            let schema = mcap.add_schema(
-                info.type_name,
-                LAYOUT_ENCODING,
-                layout_text(info.type_name).as_bytes(),
-            )?;
+            let (name, descriptor) = crate::envelope::schema(info.type_name);
+            let schema = mcap.add_schema(&name, "protobuf", &descriptor)?;
             let meta = BTreeMap::from([
+                (RAW_KEY.to_string(), RAW_ENVELOPE.to_string()),
+                ("layout".to_string(), layout_text(info.type_name)),
                 ("type_name".to_string(), info.type_name.to_string()),
                 ("size".to_string(), info.size.to_string()),
                 ("align".to_string(), info.align.to_string()),
@@ -186,6 +207,7 @@ impl<W: Write + Seek> RecordWriter<W> {
             viewer,
             counts: WriteCounts::default(),
             trim: options.trim_trailing_zeros,
+            envelope: Vec::new(),
         })
     }
 
@@ -241,7 +263,8 @@ impl<W: Write + Seek> RecordWriter<W> {
         } else {
             payload
         };
-        self.mcap.write_to_known_channel(&header, stored)?;
+        crate::envelope::wrap(stored, &mut self.envelope);
+        self.mcap.write_to_known_channel(&header, &self.envelope)?;
         *self.counts.raw.entry(info.service).or_default() += 1;
         Ok(())
     }

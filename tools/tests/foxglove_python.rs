@@ -1,5 +1,6 @@
 //! An independent reader decodes the Foxglove channels: runs `read_foxglove.py` (Python
-//! `mcap` + `mcap-protobuf-support`) on a synthetic recording. Skipped, with a note, when
+//! `mcap` + `mcap-protobuf-support`) on a synthetic recording: every channel, raw ones
+//! included, has an encoding Foxglove decodes; viewer, plot and raw channels decode. Skipped, with a note, when
 //! python3 or those packages are not installed (`pip install mcap mcap-protobuf-support`).
 
 use aisle_tools::WriterOptions;

@@ -7,7 +7,8 @@
 //! - [`mount`]: a sensor mount resolved to a [`SensorPose`] in the robot's floor frame;
 //! - [`lidar`]: the lidar itself (`config/lidar.toml`: pattern, range, rate, noise) and
 //!   the [`BeamGeometry`] its pattern gives;
-//! - [`pose`]: [`SensorPose`], a sensor frame as a rigid transform.
+//! - [`pose`]: [`SensorPose`], a sensor frame as a rigid transform;
+//! - [`shapes`]: the URDF's collision shapes in `base_link`, for viewers.
 //!
 //! Knows nothing of the bus, the world or any algorithm. Every config type implements
 //! `aisle_config::Validate` and is read with `aisle_config::load`.
@@ -27,6 +28,7 @@ pub mod lidar;
 pub mod model;
 pub mod mount;
 pub mod pose;
+pub mod shapes;
 
 pub use beams::BeamGeometry;
 pub use config::{
@@ -36,6 +38,7 @@ pub use config::{
 pub use lidar::{LidarConfig, NoiseConfig};
 pub use model::{BASE_LINK, ModelError, RobotModel, planar};
 pub use pose::SensorPose;
+pub use shapes::{CollisionShape, Geometry};
 
 use aisle_config::ConfigError;
 use std::path::Path;

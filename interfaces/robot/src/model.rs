@@ -7,6 +7,7 @@
 //! moves no other frame), so every transform is computed once at load.
 
 use crate::config::{MountConfig, RobotConfig};
+use crate::shapes::{CollisionShape, Geometry};
 use aisle_geometry::{Pose2, wrap_angle};
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use std::collections::BTreeMap;
@@ -56,6 +57,7 @@ pub struct RobotModel {
     mass: f64,
     lidar_mount: Isometry3<f64>,
     carry_mount: Isometry3<f64>,
+    shapes: Vec<CollisionShape>,
 }
 
 fn origin_to_isometry(o: &urdf_rs::Pose) -> Option<Isometry3<f64>> {
@@ -169,6 +171,7 @@ impl RobotModel {
         let mut in_base = BTreeMap::new();
         let mut floor_z = f64::INFINITY;
         let mut mass = 0.0;
+        let mut shapes = Vec::new();
         for (name, link) in &links {
             let (root, root_t_link) = to_root(name)?;
             if root != base_root {
@@ -187,6 +190,9 @@ impl RobotModel {
                 })?;
                 if let Some(z) = shape_bottom(&c.geometry, &(base_t_link * at)) {
                     floor_z = floor_z.min(z);
+                }
+                if let Some(geometry) = Geometry::of(&c.geometry) {
+                    shapes.push(CollisionShape::new(name, base_t_link * at, geometry));
                 }
             }
             let m = link.inertial.mass.value;
@@ -209,6 +215,7 @@ impl RobotModel {
             mass,
             lidar_mount: Isometry3::identity(),
             carry_mount: Isometry3::identity(),
+            shapes,
         })
     }
 
@@ -227,6 +234,11 @@ impl RobotModel {
 
     pub fn link_names(&self) -> impl Iterator<Item = &str> {
         self.in_base.keys().map(String::as_str)
+    }
+
+    /// The collision shapes of every link, placed in `base_link` (meshes left out).
+    pub fn collision_shapes(&self) -> &[CollisionShape] {
+        &self.shapes
     }
 
     /// Height of `base_link` above the floor: minus the lowest collision point.

@@ -18,9 +18,9 @@ pub enum ExportCommand {
     /// /aisle/band and /aisle/driven_path (Path), /odom (Odometry), /cmd_vel (Twist),
     /// /tf and /tf_static (frames map, odom, base_link, sensor).
     #[command(
-        after_help = "Exit: 0 written (a damaged record: what could be read, with a \
-warning), 2 could not (missing or unreadable file, not an aisle record, output not \
-writable, output is the record itself)."
+        after_help = "Exit: 0 written, 2 could not (missing or unreadable file, not an \
+aisle record, a damaged or truncated record, output not writable, output is the record \
+itself). Of a damaged record the readable part is still written, and the error says so."
     )]
     Export(ExportArgs),
 }
@@ -42,9 +42,6 @@ pub fn main(cmd: ExportCommand) -> ExitCode {
     let ExportCommand::Export(a) = cmd;
     match aisle_tools::ros2::export_ros2(&a.record, &a.output) {
         Ok(summary) => {
-            if let Some(d) = &summary.damaged {
-                eprintln!("warning: exported the readable part only: {d}");
-            }
             if summary.skipped > 0 {
                 eprintln!(
                     "warning: {} messages could not be converted (wrong size, counts out of \
@@ -57,7 +54,14 @@ pub fn main(cmd: ExportCommand) -> ExitCode {
             for (topic, n) in &summary.written {
                 println!("  {topic:<20} {n}");
             }
-            ExitCode::SUCCESS
+            // A damaged record is bad input (exit 2), though its readable part was written.
+            match &summary.damaged {
+                Some(d) => exit::fail(format_args!(
+                    "{d} ({} holds the part before the damage only)",
+                    a.output.display()
+                )),
+                None => ExitCode::SUCCESS,
+            }
         }
         Err(e) => exit::fail(e),
     }

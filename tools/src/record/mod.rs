@@ -161,7 +161,8 @@ fn record(
         aisle_node::realtime::Forks::Inherit,
     )
     .map_err(|e| NodeError::setup("recorder", e))?;
-    let writer = WriterThread::start(out, options, &names, log_clock)?;
+    let robot = robot_model(&args.config_dir);
+    let writer = WriterThread::start(out, options, &names, log_clock, robot)?;
     queue_run_info(&writer.jobs, args, &info, log_clock.name());
     heartbeat.send(NodeState::Ready, "")?;
 
@@ -227,4 +228,18 @@ fn subscribe_all(bus: &Bus) -> Result<Sources, BusError> {
         }
     }
     Ok(sources)
+}
+
+/// The robot model for the viewer's `/viz/robot`, from the group's `robot.toml` and the
+/// URDF it names. Without it the record and the live view just have no robot model:
+/// `aisle check` already refuses a config whose robot cannot be read, so this only
+/// says why once.
+fn robot_model(config_dir: &Path) -> Option<aisle_robot::RobotModel> {
+    match aisle_robot::load_robot(&config_dir.join("robot.toml")) {
+        Ok((_, model)) => Some(model),
+        Err(e) => {
+            tracing::warn!("recorder: no robot model in the viewer channels: {e}");
+            None
+        }
+    }
 }

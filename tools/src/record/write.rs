@@ -13,9 +13,10 @@ use super::RecorderOptions;
 use super::log_clock::LogClock;
 use crate::aligned::AlignedBuf;
 use crate::live::{LiveError, LiveServer, LiveSummary};
-use crate::viewer::{ViewerConverter, ViewerOptions};
+use crate::viewer::{ViewerConverter, ViewerMessage, ViewerOptions};
 use crate::writer::{RecordWriter, WriteCounts, WriteError};
 use aisle_bus::{NodeError, clock};
+use aisle_robot::RobotModel;
 use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::BufWriter;
@@ -68,6 +69,7 @@ impl WriterThread {
         options: &RecorderOptions,
         names: &[&'static str],
         clock: LogClock,
+        robot: Option<RobotModel>,
     ) -> Result<WriterThread, NodeError> {
         let writer = out.map(|out| create(out, options)).transpose()?;
         let (ready_tx, ready) = mpsc::sync_channel(1);
@@ -83,6 +85,7 @@ impl WriterThread {
             queued: queued.clone(),
             names: names.to_vec(),
             viewer: options.viewer,
+            robot,
             clock,
             flush_period_ns: options.flush_period.as_nanos() as u64,
         };
@@ -143,6 +146,8 @@ struct WriteLoop<W: std::io::Write + std::io::Seek> {
     queued: Arc<AtomicUsize>,
     names: Vec<&'static str>,
     viewer: ViewerOptions,
+    /// The robot model the viewer channels show (`/viz/robot`), when it could be read.
+    robot: Option<RobotModel>,
     /// Maps receive times to `log_time`.
     clock: LogClock,
     flush_period_ns: u64,
@@ -178,6 +183,7 @@ impl<W: std::io::Write + std::io::Seek> WriteLoop<W> {
             queued,
             names,
             viewer,
+            robot,
             mut clock,
             flush_period_ns,
         } = self;
@@ -196,9 +202,13 @@ impl<W: std::io::Write + std::io::Seek> WriteLoop<W> {
         }
         let _ = ready.send(Ok(()));
         let mut viewer = ViewerConverter::new(viewer);
+        if let Some(model) = &robot {
+            viewer = viewer.with_robot(model);
+        }
         let mut converted = Vec::new();
         let mut full = AlignedBuf::new();
         let mut last_flush = clock::monotonic_ns();
+        let mut last_log_time = 0;
         for job in jobs {
             match job {
                 Job::Raw {
@@ -210,19 +220,13 @@ impl<W: std::io::Write + std::io::Seek> WriteLoop<W> {
                     queued.fetch_sub(buf.len(), Ordering::Relaxed);
                     full.set_padded(buf.bytes(), full_len);
                     let log_time = clock.of_payload(log_time, full.bytes());
+                    last_log_time = log_time;
                     if let Some(w) = &mut writer {
                         w.write_raw_at(index, log_time, full.bytes())?;
                     }
-                    converted.clear();
+                    viewer.recycle(&mut converted);
                     viewer.convert(names[index], &full, &mut converted);
-                    for m in &converted {
-                        if let Some(l) = &mut live {
-                            l.offer(m, log_time);
-                        }
-                        if let Some(w) = &mut writer {
-                            w.write_viewer(m, log_time)?;
-                        }
-                    }
+                    emit(&converted, live.as_mut(), writer.as_mut(), log_time)?;
                     let _ = free.send((index, buf));
                 }
                 Job::Metadata(name, entries) => {
@@ -249,6 +253,10 @@ impl<W: std::io::Write + std::io::Seek> WriteLoop<W> {
                 last_flush = now;
             }
         }
+        // The last tick's plot messages, held back until the next tick that never came.
+        viewer.recycle(&mut converted);
+        viewer.finish(&mut converted);
+        emit(&converted, live.as_mut(), writer.as_mut(), last_log_time)?;
         let live = live.map(LiveServer::finish);
         let counts = match writer {
             Some(w) => w.finish()?.1,
@@ -256,4 +264,22 @@ impl<W: std::io::Write + std::io::Seek> WriteLoop<W> {
         };
         Ok(Written { counts, live })
     }
+}
+
+/// Hands converted viewer messages to the live view (which never blocks) and the file.
+fn emit<W: std::io::Write + std::io::Seek>(
+    messages: &[ViewerMessage],
+    mut live: Option<&mut LiveServer>,
+    mut writer: Option<&mut RecordWriter<W>>,
+    log_time: u64,
+) -> Result<(), WriteError> {
+    for m in messages {
+        if let Some(l) = live.as_deref_mut() {
+            l.offer(m, log_time);
+        }
+        if let Some(w) = writer.as_deref_mut() {
+            w.write_viewer(m, log_time)?;
+        }
+    }
+    Ok(())
 }

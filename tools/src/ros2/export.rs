@@ -18,7 +18,7 @@ pub enum ExportError {
     #[error(transparent)]
     Read(#[from] ReadError),
     #[error(
-        "{path} is not an aisle record: it has no `aisle-raw` channel with a message \
+        "{path} is not an aisle record: it has no raw aisle channel with a message \
          (make one with `aisle run --record`)"
     )]
     NotARecord { path: PathBuf },
@@ -40,7 +40,8 @@ pub struct ExportSummary {
     /// Raw messages of a converted topic that yielded nothing (wrong size, counts out of
     /// range, non-finite values).
     pub skipped: u64,
-    /// Where a damaged record stops being readable (what came before is exported).
+    /// Where a damaged record stops being readable, naming the file (what came before is
+    /// exported; `aisle export` then exits 2: the whole record could not be converted).
     pub damaged: Option<String>,
 }
 
@@ -125,6 +126,14 @@ fn write_bag(
         for r in &out {
             bag.write(r, m.log_time)?;
         }
+    }
+    // A file cut at a record boundary reads to its end without an error, but it has no
+    // summary: it was not finished, so it is as damaged as one cut mid-record.
+    if summary.damaged.is_none() && !record.is_finalised() {
+        summary.damaged = Some(format!(
+            "{} has no summary: the recording was not finished (the file is truncated)",
+            record.path().display()
+        ));
     }
     summary.skipped = conv.skipped();
     summary.written = RosTopic::ALL

@@ -6,13 +6,15 @@
 //! skip); the Foxglove messages themselves are made in [`super::build`].
 
 use super::build::{encode, grid, log, path, pose3, rgba, timestamp, transform};
-use super::{ViewerMessage, ViewerOptions, ViewerTopic};
+use super::plots::{self, LatencyTicks};
+use super::{ViewerMessage, ViewerOptions, ViewerTopic, robot};
 use crate::aligned::AlignedBuf;
+use crate::payload_fields::{STAMP_AT, u64_at};
 use aisle_messages::topics::names as s;
 use aisle_messages::{
-    ControllerBand, ControllerGoal, Heartbeat, MAX_BODIES, MAX_CLOUD_POINTS, MAX_COMMANDS,
+    ControllerBand, ControllerGoal, Header, Heartbeat, MAX_BODIES, MAX_CLOUD_POINTS, MAX_COMMANDS,
     MAX_PATH_POSES, MissionState, MissionStatus, NodeKind, NodeState, OccupancyGrid, PointCloud,
-    RobotState, WorldTruth, read_name,
+    RobotState, TickDone, Trajectory, WorldTruth, read_name,
 };
 use foxglove::messages as fg;
 
@@ -28,7 +30,17 @@ pub struct ViewerConverter {
     clouds: u64,
     last_status: Option<(u32, u32, String)>,
     last_failures: Vec<(u32, String)>,
+    /// The robot's entity until it is sent (with the first message converted).
+    robot: Option<fg::SceneEntity>,
+    latency: LatencyTicks,
+    /// Buffers of messages already written, for the JSON plot messages (so writing
+    /// them allocates nothing once the pool is warm).
+    spare: Vec<Vec<u8>>,
 }
+
+/// Buffers kept for reuse, and the largest one kept (the JSON messages are small).
+const SPARE_BUFFERS: usize = 16;
+const SPARE_CAPACITY: usize = 4096;
 
 /// Longest driven path kept; beyond it every other pose is dropped.
 const MAX_DRIVEN: usize = 20_000;
@@ -41,10 +53,41 @@ impl ViewerConverter {
         }
     }
 
+    /// Also sends the robot model (`/viz/robot`), with the first message converted.
+    pub fn with_robot(mut self, model: &aisle_robot::RobotModel) -> Self {
+        self.robot = Some(robot::entity(model));
+        self
+    }
+
+    /// Empties `out`, keeping the buffers of its messages for the next plot messages
+    /// (call it instead of `clear` once they are written).
+    pub fn recycle(&mut self, out: &mut Vec<ViewerMessage>) {
+        for m in out.drain(..) {
+            if self.spare.len() < SPARE_BUFFERS && m.data.capacity() <= SPARE_CAPACITY {
+                self.spare.push(m.data);
+            }
+        }
+    }
+
+    /// What is still held back at the end of the run (the last tick's latencies).
+    pub fn finish(&mut self, out: &mut Vec<ViewerMessage>) {
+        let done = self.latency.finish();
+        self.send_latency(done, out);
+    }
+
+    fn buffer(&mut self) -> Vec<u8> {
+        self.spare.pop().unwrap_or_default()
+    }
+
     /// Converts one recorded message of `service`; appends what it yields to `out`.
     /// Messages whose bytes do not fit their type, or whose counts are out of range,
     /// yield nothing (the raw channel still has them).
     pub fn convert(&mut self, service: &str, msg: &AlignedBuf, out: &mut Vec<ViewerMessage>) {
+        if msg.len() >= size_of::<Header>()
+            && let Some(entity) = self.robot.take()
+        {
+            out.push(robot::message(&entity, u64_at(msg.bytes(), STAMP_AT)));
+        }
         match service {
             s::WORLD_TRUTH => {
                 if let Some(m) = msg.view::<WorldTruth>() {
@@ -86,6 +129,17 @@ impl ViewerConverter {
             s::MISSION_STATUS => {
                 if let Some(m) = msg.view::<MissionStatus>() {
                     self.status(m, out)
+                }
+            }
+            s::TRAJECTORY => {
+                if let Some(m) = msg.view::<Trajectory>() {
+                    self.trajectory(m, out)
+                }
+            }
+            s::TICK_DONE => {
+                if let Some(m) = msg.view::<TickDone>() {
+                    let done = self.latency.done(m);
+                    self.send_latency(done, out);
                 }
             }
             s::HEARTBEAT => {
@@ -217,6 +271,24 @@ impl ViewerConverter {
         out.push(encode(ViewerTopic::Points, m.header.stamp_ns, &pc));
     }
 
+    fn trajectory(&mut self, m: &Trajectory, out: &mut Vec<ViewerMessage>) {
+        let spare = &mut self.spare;
+        plots::trajectory(m, out, || spare.pop().unwrap_or_default());
+        let done = self.latency.trajectory(&m.header);
+        self.send_latency(done, out);
+    }
+
+    fn send_latency(
+        &mut self,
+        done: Option<(u64, plots::StageLatency)>,
+        out: &mut Vec<ViewerMessage>,
+    ) {
+        if let Some((stamp, l)) = done {
+            let buf = self.buffer();
+            out.push(plots::latency(stamp, &l, buf));
+        }
+    }
+
     fn goal(&mut self, m: &ControllerGoal, out: &mut Vec<ViewerMessage>) {
         let n = m.len as usize;
         if n > MAX_PATH_POSES || self.last_goal_id == Some(m.goal_id) {
@@ -242,6 +314,8 @@ impl ViewerConverter {
             )],
         };
         out.push(encode(ViewerTopic::Transforms, m.header.stamp_ns, &tfs));
+        let buf = self.buffer();
+        out.push(plots::odometry(m, buf));
         let moved = self.last_driven.is_none_or(|(x, y, th)| {
             (p.x - x).hypot(p.y - y) > 0.02 || aisle_geometry::wrap_angle(p.theta - th).abs() > 0.05
         });

@@ -1,5 +1,6 @@
-//! Turns recorded aisle messages into Foxglove's well-known protobuf messages, so a run
-//! opens in Foxglove or Lichtblick with the scene in 3D.
+//! Turns recorded aisle messages into Foxglove's well-known protobuf messages and into
+//! plottable JSON, so a run opens in Foxglove or Lichtblick with the scene in 3D and its
+//! signals in plots.
 //!
 //! Grids (`/viz/map/global`, `/viz/map/local`, `foxglove.Grid`, one `int8` field
 //! `occupancy`, row-major from the origin cell) hold the ROS `nav_msgs/OccupancyGrid`
@@ -11,11 +12,17 @@
 //! The converter keeps a little state so it emits only what changed (scene, logs) and
 //! grows the driven path. It knows nothing about files or the bus.
 //!
-//! Modules: [`converter`] (the stateful conversion, message by message) and [`build`]
-//! (Foxglove messages from plain values, and their encoding).
+//! The robot (`/viz/robot`) is a scene entity made of its URDF's collision shapes in
+//! `base_link` ([`robot`]). The plot channels (`/plot/odometry`, `/plot/cmd_vel`,
+//! `/plot/teb`, `/plot/latency`) are JSON with a JSON Schema ([`plots`]).
+//!
+//! Modules: [`converter`] (the stateful conversion, message by message), [`build`]
+//! (Foxglove messages from plain values, and their encoding), [`robot`], [`plots`].
 
 mod build;
 mod converter;
+mod plots;
+mod robot;
 
 pub use build::timestamp;
 pub use converter::ViewerConverter;
@@ -23,7 +30,9 @@ pub use converter::ViewerConverter;
 use foxglove::Encode;
 use foxglove::messages as fg;
 
-/// The viewer channels, one per Foxglove message stream.
+/// The viewer channels, one per Foxglove message stream. Each carries its own message
+/// encoding and schema ([`ViewerTopic::encoding`], [`ViewerTopic::schema`]): the
+/// writer and the live view declare every channel from these alone.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum ViewerTopic {
     Scene,
@@ -35,10 +44,17 @@ pub enum ViewerTopic {
     DrivenPath,
     Transforms,
     Log,
+    /// The robot model (`foxglove.SceneUpdate` in `base_link`), sent once.
+    Robot,
+    /// Plot channels (JSON): odometry, first velocity command, TEB step, stage latency.
+    Odometry,
+    Command,
+    Teb,
+    Latency,
 }
 
 impl ViewerTopic {
-    pub const ALL: [ViewerTopic; 9] = [
+    pub const ALL: [ViewerTopic; 14] = [
         ViewerTopic::Scene,
         ViewerTopic::Points,
         ViewerTopic::GlobalMap,
@@ -48,6 +64,11 @@ impl ViewerTopic {
         ViewerTopic::DrivenPath,
         ViewerTopic::Transforms,
         ViewerTopic::Log,
+        ViewerTopic::Robot,
+        ViewerTopic::Odometry,
+        ViewerTopic::Command,
+        ViewerTopic::Teb,
+        ViewerTopic::Latency,
     ];
 
     pub fn topic(self) -> &'static str {
@@ -61,13 +82,22 @@ impl ViewerTopic {
             ViewerTopic::DrivenPath => "/viz/path/driven",
             ViewerTopic::Transforms => "/tf",
             ViewerTopic::Log => "/viz/log",
+            ViewerTopic::Robot => "/viz/robot",
+            ViewerTopic::Odometry => "/plot/odometry",
+            ViewerTopic::Command => "/plot/cmd_vel",
+            ViewerTopic::Teb => "/plot/teb",
+            ViewerTopic::Latency => "/plot/latency",
         }
     }
 
-    /// The Foxglove schema (`foxglove.X`, protobuf `FileDescriptorSet`).
+    /// The channel's schema: a Foxglove protobuf message (`foxglove.X`,
+    /// `FileDescriptorSet`) or, for the plot channels, a JSON Schema (`aisle.plot.X`).
     pub fn schema(self) -> Option<foxglove::Schema> {
+        let json = |name: &str, text: &'static str| {
+            Some(foxglove::Schema::new(name, "jsonschema", text.as_bytes()))
+        };
         match self {
-            ViewerTopic::Scene => fg::SceneUpdate::get_schema(),
+            ViewerTopic::Scene | ViewerTopic::Robot => fg::SceneUpdate::get_schema(),
             ViewerTopic::Points => fg::PointCloud::get_schema(),
             ViewerTopic::GlobalMap | ViewerTopic::LocalMap => fg::Grid::get_schema(),
             ViewerTopic::ReferencePath | ViewerTopic::Band | ViewerTopic::DrivenPath => {
@@ -75,12 +105,34 @@ impl ViewerTopic {
             }
             ViewerTopic::Transforms => fg::FrameTransforms::get_schema(),
             ViewerTopic::Log => fg::Log::get_schema(),
+            ViewerTopic::Odometry => json("aisle.plot.Odometry", plots::ODOMETRY_SCHEMA),
+            ViewerTopic::Command => json("aisle.plot.Command", plots::COMMAND_SCHEMA),
+            ViewerTopic::Teb => json("aisle.plot.TebStep", plots::TEB_SCHEMA),
+            ViewerTopic::Latency => json("aisle.plot.StageLatency", plots::LATENCY_SCHEMA),
         }
     }
 
-    /// The message encoding of the channel.
+    /// The message encoding of the channel: `protobuf` or `json`.
     pub fn encoding(self) -> &'static str {
-        "protobuf"
+        match self {
+            ViewerTopic::Odometry
+            | ViewerTopic::Command
+            | ViewerTopic::Teb
+            | ViewerTopic::Latency => "json",
+            _ => "protobuf",
+        }
+    }
+
+    /// True for the channels whose newest message a late live subscriber gets at once
+    /// (they change rarely or never).
+    pub fn latched(self) -> bool {
+        matches!(
+            self,
+            ViewerTopic::Scene
+                | ViewerTopic::GlobalMap
+                | ViewerTopic::ReferencePath
+                | ViewerTopic::Robot
+        )
     }
 
     pub fn index(self) -> usize {
@@ -236,12 +288,131 @@ mod tests {
     }
 
     #[test]
-    fn every_topic_has_a_foxglove_protobuf_schema() {
+    fn every_topic_has_a_schema_in_its_encoding() {
         for t in ViewerTopic::ALL {
             let s = t.schema().unwrap();
-            assert!(s.name.starts_with("foxglove."), "{}", s.name);
-            assert_eq!(s.encoding, "protobuf");
             assert!(!s.data.is_empty());
+            match t.encoding() {
+                "protobuf" => {
+                    assert!(s.name.starts_with("foxglove."), "{}", s.name);
+                    assert_eq!(s.encoding, "protobuf");
+                }
+                "json" => {
+                    assert_eq!(s.encoding, "jsonschema");
+                    let v: serde_json::Value = serde_json::from_slice(&s.data).unwrap();
+                    assert_eq!(v["title"], s.name.as_str());
+                }
+                other => panic!("{}: encoding {other}", t.topic()),
+            }
         }
+    }
+
+    /// Every field of `value` is declared in `schema`, recursively, with its type.
+    fn check_fields(path: &str, value: &serde_json::Value, schema: &serde_json::Value) {
+        use serde_json::Value as V;
+        let ty = schema["type"]
+            .as_str()
+            .unwrap_or_else(|| panic!("{path}: no type"));
+        match value {
+            V::Object(fields) => {
+                assert_eq!(ty, "object", "{path}");
+                for (k, v) in fields {
+                    let sub = &schema["properties"][k];
+                    assert!(!sub.is_null(), "{path}.{k} is not in the schema");
+                    check_fields(&format!("{path}.{k}"), v, sub);
+                }
+            }
+            V::Number(n) if ty == "integer" => assert!(n.is_u64() || n.is_i64(), "{path}"),
+            V::Number(_) => assert_eq!(ty, "number", "{path}"),
+            V::Bool(_) => assert_eq!(ty, "boolean", "{path}"),
+            other => panic!("{path}: unexpected {other}"),
+        }
+    }
+
+    #[test]
+    fn plot_payloads_hold_only_what_their_schema_declares() {
+        use aisle_messages::{NodeKind, TickDone, Trajectory};
+        let mut conv = ViewerConverter::default();
+        let mut out = Vec::new();
+        let mut r = zeroed_box::<RobotState>();
+        r.header.tick = 3;
+        r.header.stamp_ns = 300_000_000;
+        r.pose.x = 1.5;
+        r.twist = [0.4, -0.1];
+        conv.convert(s::ROBOT_STATE, &buf(&*r), &mut out);
+        let mut t = zeroed_box::<Trajectory>();
+        t.header.tick = 3;
+        t.header.tick_wall_ns = 1_000_000;
+        t.header.publish_wall_ns = 3_500_000;
+        t.len = 1;
+        t.commands[0].v = 0.25;
+        t.exit_flag = 2;
+        t.iterations = 7;
+        t.cost = 1.25;
+        conv.convert(s::TRAJECTORY, &buf(&*t), &mut out);
+        let mut d = zeroed_box::<TickDone>();
+        d.node = NodeKind::Lidar.code();
+        d.header.tick = 3;
+        d.compute_ns = 2_000_000;
+        conv.convert(s::TICK_DONE, &buf(&*d), &mut out);
+        // Tick 3's latency goes out once tick 4 begins.
+        d.header.tick = 4;
+        conv.convert(s::TICK_DONE, &buf(&*d), &mut out);
+        let mut seen = std::collections::BTreeMap::new();
+        for m in out.iter().filter(|m| m.topic.encoding() == "json") {
+            let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+            let schema: serde_json::Value =
+                serde_json::from_slice(&m.topic.schema().unwrap().data).unwrap();
+            check_fields(m.topic.topic(), &v, &schema);
+            assert!(seen.insert(m.topic, v).is_none(), "{:?} twice", m.topic);
+        }
+        assert_eq!(seen.len(), 4, "{seen:?}");
+        let odom = &seen[&ViewerTopic::Odometry];
+        assert_eq!(
+            (odom["x"].as_f64(), odom["v"].as_f64()),
+            (Some(1.5), Some(0.4))
+        );
+        assert_eq!(odom["header"]["stamp"]["nsec"], 300_000_000);
+        assert_eq!(seen[&ViewerTopic::Command]["v"].as_f64(), Some(0.25));
+        assert_eq!(seen[&ViewerTopic::Teb]["exit_flag"], 2);
+        let lat = &seen[&ViewerTopic::Latency];
+        assert_eq!(lat["header"]["tick"], 3);
+        assert_eq!(lat["lidar_ms"].as_f64(), Some(2.0));
+        assert_eq!(lat["end_to_end_ms"].as_f64(), Some(2.5));
+        assert!(lat.get("mapper_ms").is_none(), "{lat}");
+        conv.recycle(&mut out);
+        assert!(out.is_empty());
+        // At the end of the run the last tick goes out too.
+        conv.finish(&mut out);
+        assert_eq!(out.len(), 1);
+        let last: serde_json::Value = serde_json::from_slice(&out[0].data).unwrap();
+        assert_eq!(last["header"]["tick"], 4, "{last}");
+    }
+
+    #[test]
+    fn the_robot_model_is_sent_once_in_base_link() {
+        let urdf = aisle_config::testing::shipped("jackal.urdf");
+        let model =
+            aisle_robot::RobotModel::load(&urdf, &aisle_robot::RobotConfig::default()).unwrap();
+        let mut conv = ViewerConverter::default().with_robot(&model);
+        let mut out = Vec::new();
+        let mut st = zeroed_box::<MissionStatus>();
+        st.header.stamp_ns = 5;
+        conv.convert(s::MISSION_STATUS, &buf(&*st), &mut out);
+        conv.convert(s::MISSION_STATUS, &buf(&*st), &mut out);
+        let robots: Vec<_> = out
+            .iter()
+            .filter(|m| m.topic == ViewerTopic::Robot)
+            .collect();
+        assert_eq!(robots.len(), 1);
+        let su = fg::SceneUpdate::decode(robots[0].data.as_slice()).unwrap();
+        let e = &su.entities[0];
+        assert_eq!((e.frame_id.as_str(), e.frame_locked), ("base_link", true));
+        assert_eq!((e.cubes.len(), e.cylinders.len()), (1, 4));
+        // The viewer's base_link is on the floor: the chassis centre is 0.092 above the
+        // URDF's base_link, which is base_height above the floor.
+        let z = e.cubes[0].pose.as_ref().unwrap().position.unwrap().z;
+        assert!((z - (0.092 + model.base_height())).abs() < 1e-12, "{z}");
+        assert!(ViewerTopic::Robot.latched());
     }
 }
