@@ -12,6 +12,7 @@
 //!
 //! Knows nothing of noise or of the general (tilted) case.
 
+use crate::grid::Near;
 use crate::pattern::ScanPattern;
 use crate::world::{World, WorldBox};
 
@@ -60,6 +61,7 @@ pub(crate) struct PlanarCaster {
     active: Vec<u32>,
     cands: Vec<Candidate>,
     floor_s: Vec<f32>,
+    near: Near,
 }
 
 /// Origins this close to a box's outline count as inside it for the azimuth span, where
@@ -75,6 +77,7 @@ impl PlanarCaster {
             active: Vec::with_capacity(3 * box_count),
             cands: Vec::with_capacity(3 * box_count),
             floor_s: vec![f32::INFINITY; rows],
+            near: Near::new(box_count),
         }
     }
 
@@ -93,7 +96,8 @@ impl PlanarCaster {
         self.sweep(pattern, out)
     }
 
-    /// Moves every enabled box into the sensor frame, culls it, and lists the columns
+    /// Moves every enabled box near the sensor (the grid's superset of those within
+    /// range) into the sensor frame, culls it, and lists the columns
     /// and rows it may cover, sorted for the column sweep; fills the floor distances.
     fn prepare(
         &mut self,
@@ -107,7 +111,11 @@ impl PlanarCaster {
         self.spans.clear();
         let frame = Frame::new(pattern, origin, yaw);
         self.floor_distances(pattern, origin, hit_floor);
-        for b in world.enabled_boxes() {
+        world.gather_near([origin[0], origin[1]], frame.range, &mut self.near);
+        for k in 0..self.near.list.len() {
+            let Some(b) = world.enabled_box(self.near.list[k]) else {
+                continue;
+            };
             let Some(p) = frame.place(b) else {
                 continue;
             };
