@@ -25,9 +25,16 @@ struct SensorObb {
     half: [f32; 3],
     /// Lower bound on the distance of any hit: |center| - radius.
     near: f32,
+    /// Centre and half extents (padded) of its bounding box in the sensor xy plane.
+    xy: [f32; 2],
+    ext: [f32; 2],
     row_lo: u32,
     row_hi: u32,
 }
+
+/// Pads the sensor-frame bounding box in which a column's rays must meet a box, so
+/// rounding in f32 never drops a box the ray test would hit (metres).
+const PAD: f64 = 1e-3;
 
 /// Columns `c_lo..=c_hi` may see box `obb`.
 #[derive(Debug, Clone, Copy)]
@@ -208,6 +215,8 @@ impl GeneralCaster {
                 origin: origin.map(|v| v as f32),
                 half: half.map(|v| v as f32),
                 near: near as f32,
+                xy: [c[0] as f32, c[1] as f32],
+                ext: [(ext[0] + PAD) as f32, (ext[1] + PAD) as f32],
                 row_lo,
                 row_hi,
             });
@@ -272,12 +281,25 @@ impl GeneralCaster {
         self.cands.clear();
         for &si in &self.active {
             let o = &self.obbs[spans[si as usize].obb as usize];
+            // A ray of this column at distance t is t cos e along (ca, sa) in the xy
+            // plane, so it can meet the box only where that 2D ray crosses the box's
+            // xy bounding box, at s_in <= t cos e <= t.
+            let Some((sx0, sx1)) = slab(-o.xy[0], ca, o.ext[0]) else {
+                continue;
+            };
+            let Some((sy0, sy1)) = slab(-o.xy[1], sa, o.ext[1]) else {
+                continue;
+            };
+            let s_in = sx0.max(sy0).max(0.0);
+            if s_in > sx1.min(sy1) {
+                continue;
+            }
             self.cands.push(Candidate {
                 a: o.axes.map(|ax| ax[0] * ca + ax[1] * sa),
                 b: o.axes.map(|ax| ax[2]),
                 origin: o.origin,
                 half: o.half,
-                near: o.near,
+                near: o.near.max(s_in),
                 row_lo: o.row_lo,
                 row_hi: o.row_hi,
             });
@@ -332,6 +354,21 @@ fn rows(grid: &Grid, c: [f64; 3], ext: [f64; 3]) -> Option<(u32, u32)> {
 
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// Ray parameter interval inside the slab |o + t d| <= h, or `None` if it misses.
+#[inline]
+fn slab(o: f32, d: f32, h: f32) -> Option<(f32, f32)> {
+    if d != 0.0 {
+        let inv = 1.0 / d;
+        let ta = (-h - o) * inv;
+        let tb = (h - o) * inv;
+        Some((ta.min(tb), ta.max(tb)))
+    } else if o.abs() <= h {
+        Some((f32::NEG_INFINITY, f32::INFINITY))
+    } else {
+        None
+    }
 }
 
 /// Entry distance of the ray into the box, if it enters at t >= 0.
