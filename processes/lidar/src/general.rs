@@ -2,13 +2,15 @@
 //!
 //! Boxes become oriented boxes in the sensor frame, so each ray runs a 3D slab test.
 //! Per scan the boxes near the sensor (the grid's superset of those within range) are
-//! moved to the sensor frame once, culled by range, and given the column span (their
-//! azimuths about the sensor z axis) and row span (their elevations over the sensor xy
-//! plane) they can occupy, both from the box's sensor-frame bounding box. A sweep over
-//! columns keeps the boxes whose span covers the column, in order of their nearest
-//! possible hit, so a ray tests only those and stops early. Which boxes are tested does
-//! not change the result (the nearest entry of every box that can be hit), so the
-//! points equal those of a test against every box. Knows nothing of noise.
+//! moved to the sensor frame once, culled by range and by the elevations they span,
+//! and given the columns (their azimuths about the sensor z axis) they can occupy, from
+//! the box's sensor-frame bounding box. A sweep over columns keeps the boxes whose span
+//! covers the column; per column, where the column's vertical half-plane crosses a
+//! box's bounding box gives a lower bound on the distance of a hit and the elevations
+//! that can hit it, so a ray runs the slab test only on those, nearest first, and stops
+//! early. Which boxes are tested does not change the result (the nearest entry of
+//! every box that can be hit), so the points equal those of a test against every box.
+//! Knows nothing of noise.
 
 use crate::SensorPose;
 use crate::grid::Near;
@@ -28,8 +30,8 @@ struct SensorObb {
     /// Centre and half extents (padded) of its bounding box in the sensor xy plane.
     xy: [f32; 2],
     ext: [f32; 2],
-    row_lo: u32,
-    row_hi: u32,
+    /// Its z interval in the sensor frame (padded).
+    z: [f32; 2],
 }
 
 /// Pads the sensor-frame bounding box in which a column's rays must meet a box, so
@@ -53,8 +55,9 @@ struct Candidate {
     origin: [f32; 3],
     half: [f32; 3],
     near: f32,
-    row_lo: u32,
-    row_hi: u32,
+    /// Tangents of the elevations at which this column's rays can meet the box.
+    tan_lo: f32,
+    tan_hi: f32,
 }
 
 #[derive(Debug, Clone)]
@@ -63,6 +66,9 @@ pub(crate) struct GeneralCaster {
     spans: Vec<Span>,
     active: Vec<u32>,
     cands: Vec<Candidate>,
+    /// The candidates in order of `near`: its bits (never negative, so they sort as
+    /// integers) above the candidate's index.
+    order: Vec<u64>,
     near: Near,
 }
 
@@ -112,6 +118,7 @@ impl GeneralCaster {
             spans: Vec::with_capacity(3 * box_count),
             active: Vec::with_capacity(3 * box_count),
             cands: Vec::with_capacity(3 * box_count),
+            order: Vec::with_capacity(3 * box_count),
             near: Near::new(box_count),
         }
     }
@@ -154,7 +161,7 @@ impl GeneralCaster {
                         hit = true;
                     }
                 }
-                hit |= self.nearest_box(row as u32, ce, se, &mut best);
+                hit |= self.nearest_box(pattern.tan_el[row], ce, se, &mut best);
                 out[row * cols + col] = if hit {
                     hits += 1;
                     let d = pattern.direction(row, col);
@@ -206,9 +213,9 @@ impl GeneralCaster {
             // Half extents of the box's bounding box in the sensor frame.
             let ext: [f64; 3] =
                 std::array::from_fn(|j| (0..3).map(|i| axes[i][j].abs() * half[i]).sum::<f64>());
-            let Some((row_lo, row_hi)) = rows(grid, c, ext) else {
+            if rows(grid, c, ext).is_none() {
                 continue;
-            };
+            }
             let index = self.obbs.len() as u32;
             self.obbs.push(SensorObb {
                 axes: axes.map(|a| a.map(|v| v as f32)),
@@ -217,8 +224,7 @@ impl GeneralCaster {
                 near: near as f32,
                 xy: [c[0] as f32, c[1] as f32],
                 ext: [(ext[0] + PAD) as f32, (ext[1] + PAD) as f32],
-                row_lo,
-                row_hi,
+                z: [(c[2] - ext[2] - PAD) as f32, (c[2] + ext[2] + PAD) as f32],
             });
             self.push_spans(grid, c, ext, &axes, &half, index);
         }
@@ -279,6 +285,7 @@ impl GeneralCaster {
         self.active
             .retain(|&si| spans[si as usize].c_hi as usize >= col);
         self.cands.clear();
+        self.order.clear();
         for &si in &self.active {
             let o = &self.obbs[spans[si as usize].obb as usize];
             // A ray of this column at distance t is t cos e along (ca, sa) in the xy
@@ -291,34 +298,39 @@ impl GeneralCaster {
                 continue;
             };
             let s_in = sx0.max(sy0).max(0.0);
-            if s_in > sx1.min(sy1) {
+            let s_out = sx1.min(sy1);
+            if s_in > s_out {
                 continue;
             }
+            let (tan_lo, tan_hi) = tan_bounds(s_in, s_out, o.z);
+            let near = o.near.max(s_in);
+            self.order
+                .push((u64::from(near.to_bits()) << 32) | self.cands.len() as u64);
             self.cands.push(Candidate {
                 a: o.axes.map(|ax| ax[0] * ca + ax[1] * sa),
                 b: o.axes.map(|ax| ax[2]),
                 origin: o.origin,
                 half: o.half,
-                near: o.near.max(s_in),
-                row_lo: o.row_lo,
-                row_hi: o.row_hi,
+                near,
+                tan_lo,
+                tan_hi,
             });
         }
-        self.cands
-            .sort_unstable_by(|a, b| a.near.total_cmp(&b.near));
+        self.order.sort_unstable();
         next
     }
 
-    /// Lowers `best` to the nearest entry into a candidate of the ray in `row` at
-    /// elevation (cos `ce`, sin `se`) of the current column; whether any was hit.
+    /// Lowers `best` to the nearest entry into a candidate of the ray at elevation
+    /// (tan `tan_e`, cos `ce`, sin `se`) of the current column; whether any was hit.
     #[inline]
-    fn nearest_box(&self, row: u32, ce: f32, se: f32, best: &mut f32) -> bool {
+    fn nearest_box(&self, tan_e: f32, ce: f32, se: f32, best: &mut f32) -> bool {
         let mut hit = false;
-        for cand in &self.cands {
+        for &key in &self.order {
+            let cand = &self.cands[(key & 0xffff_ffff) as usize];
             if cand.near > *best {
                 break;
             }
-            if row < cand.row_lo || row > cand.row_hi {
+            if tan_e < cand.tan_lo || tan_e > cand.tan_hi {
                 continue;
             }
             if let Some(t) = entry(cand, ce, se)
@@ -354,6 +366,26 @@ fn rows(grid: &Grid, c: [f64; 3], ext: [f64; 3]) -> Option<(u32, u32)> {
 
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// The tangents of the elevations of the points at horizontal distance in [`s_in`,
+/// `s_out`] and height in `z` (sensor frame): where a ray of the column can meet a box
+/// whose bounding box gives those.
+#[inline]
+fn tan_bounds(s_in: f32, s_out: f32, z: [f32; 2]) -> (f32, f32) {
+    if s_out.is_nan() || s_out <= 0.0 {
+        return (f32::NEG_INFINITY, f32::INFINITY);
+    }
+    let over = |v: f32| {
+        if s_in > 0.0 {
+            v / s_in
+        } else {
+            v.signum() * f32::INFINITY
+        }
+    };
+    let hi = if z[1] > 0.0 { over(z[1]) } else { z[1] / s_out };
+    let lo = if z[0] < 0.0 { over(z[0]) } else { z[0] / s_out };
+    (lo, hi)
 }
 
 /// Ray parameter interval inside the slab |o + t d| <= h, or `None` if it misses.
