@@ -303,7 +303,8 @@ impl GeneralCaster {
                 continue;
             }
             let (tan_lo, tan_hi) = tan_bounds(s_in, s_out, o.z);
-            let near = o.near.max(s_in);
+            // + 0.0 turns a -0.0 into 0.0, whose bits sort first.
+            let near = o.near.max(s_in) + 0.0;
             self.order
                 .push((u64::from(near.to_bits()) << 32) | self.cands.len() as u64);
             self.cands.push(Candidate {

@@ -60,6 +60,9 @@ pub(crate) struct PlanarCaster {
     spans: Vec<Span>,
     active: Vec<u32>,
     cands: Vec<Candidate>,
+    /// The candidates in order of `s_in`: its bits (never negative, so they sort as
+    /// integers) above the candidate's index.
+    order: Vec<u64>,
     floor_s: Vec<f32>,
     near: Near,
 }
@@ -76,6 +79,7 @@ impl PlanarCaster {
             spans: Vec::with_capacity(3 * box_count),
             active: Vec::with_capacity(3 * box_count),
             cands: Vec::with_capacity(3 * box_count),
+            order: Vec::with_capacity(3 * box_count),
             floor_s: vec![f32::INFINITY; rows],
             near: Near::new(box_count),
         }
@@ -216,6 +220,7 @@ impl PlanarCaster {
             let ca = pattern.cos_az[c];
             let sa = pattern.sin_az[c];
             self.cands.clear();
+            self.order.clear();
             for &si in &self.active {
                 let b = &self.sboxes[self.spans[si as usize].sbox as usize];
                 let du = ca * b.ux + sa * b.uy;
@@ -226,9 +231,12 @@ impl PlanarCaster {
                 let Some((v0, v1)) = slab(b.ov, dv, b.hy) else {
                     continue;
                 };
-                let s_in = u0.max(v0).max(0.0);
+                // + 0.0 turns a -0.0 into 0.0, whose bits sort first.
+                let s_in = u0.max(v0).max(0.0) + 0.0;
                 let s_out = u1.min(v1);
                 if s_in <= s_out && s_in <= range {
+                    let key = (u64::from(s_in.to_bits()) << 32) | self.cands.len() as u64;
+                    self.order.push(key);
                     self.cands.push(Candidate {
                         s_in,
                         s_out,
@@ -239,8 +247,7 @@ impl PlanarCaster {
                     });
                 }
             }
-            self.cands
-                .sort_unstable_by(|a, b| a.s_in.total_cmp(&b.s_in));
+            self.order.sort_unstable();
 
             for r in 0..rows {
                 let k = pattern.tan_el[r];
@@ -250,7 +257,8 @@ impl PlanarCaster {
                     best = self.floor_s[r];
                     hit = true;
                 }
-                for cand in &self.cands {
+                for &key in &self.order {
+                    let cand = &self.cands[(key & 0xffff_ffff) as usize];
                     if cand.s_in > best {
                         break;
                     }

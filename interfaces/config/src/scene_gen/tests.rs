@@ -69,10 +69,7 @@ fn bodies_do_not_overlap_and_aisles_stay_clear() {
             .collect();
         assert!(pairs.is_empty(), "{p:?}: overlapping bodies {named:?}");
         // Cross aisles (full width) and one picking aisle per aisle.
-        assert!(
-            layout.aisles.len() > 2 + p.aisles as usize,
-            "{layout:?}"
-        );
+        assert!(layout.aisles.len() > 2 + p.aisles as usize, "{layout:?}");
         for (b, i) in &boxes {
             for a in &layout.aisles {
                 let a6 = [a[0], a[1], 0.0, a[2], a[3], 1.0];
