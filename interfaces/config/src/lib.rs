@@ -13,6 +13,7 @@ pub mod checks;
 mod load;
 mod read;
 pub mod scene;
+pub mod scene_gen;
 pub mod testing;
 
 pub use checks::InvalidKey;

@@ -1,8 +1,20 @@
 //! Full-scan timing: the seed pattern (31 x 1201 rays) on the shipped warehouse from the
 //! start pose and from inside the storage lane, the parry3d reference for comparison,
-//! and the scaling with 10 / 100 / 1000 random boxes (seeded).
+//! and the scaling with 10 / 100 / 1000 random boxes (seeded) in the seed's 20 x 30 m
+//! (so the density grows with the count).
+//!
+//! `generated`: warehouses from `aisle_config::scene_gen` (the code behind `aisle scene
+//! generate`, seeded) of about 1,000 / 5,000 / 20,000 bodies, and the shipped large
+//! one's parameters (19 aisles x 172 m, about 100 x 200 m). What is held fixed is the
+//! layout (3 m aisles between back-to-back rows of 2.7 m bays, three storage levels
+//! filled at 60 %, a cross aisle every 11 bays): the aisles and their length grow with
+//! the count, so the density around the sensor stays that of a warehouse. The pose is
+//! the same kind in every scene: in the middle picking aisle, 14 m past its start,
+//! heading along it, level and tilted (roll 0.05, pitch -0.1 rad, as the seed's tilted
+//! case).
 
 use aisle_config::scene::{Body, BoxPart, Scene};
+use aisle_config::scene_gen::{GenParams, Layout, generate_scene};
 use aisle_geometry::Pose2;
 use aisle_lidar::{LidarConfig, ParryReference, Raycaster, SensorPose};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
@@ -141,5 +153,49 @@ fn scans(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, scans);
+/// The sensor in the middle aisle of `p`'s layout, 14 m in, heading along it; level or
+/// with the tilted mount.
+fn in_aisle(p: &GenParams, tilted: bool) -> SensorPose {
+    let layout = Layout::new(p);
+    // aisles[0..2] are the main and back cross aisles, then the picking aisles.
+    let a = layout.aisles[2 + p.aisles as usize / 2];
+    let robot = Pose2::new(
+        0.5 * (a[0] + a[2]),
+        a[1] + 14.0,
+        std::f64::consts::FRAC_PI_2,
+    );
+    let rpy = if tilted { [0.05, -0.1, 0.0] } else { [0.0; 3] };
+    SensorPose::on_robot(&robot, &SensorPose::from_xyz_rpy([0.25, 0.1, 0.2], rpy))
+}
+
+fn generated(c: &mut Criterion) {
+    let mut quiet = LidarConfig::default();
+    quiet.noise.enabled = false;
+    let mut g = c.benchmark_group("generated");
+    g.throughput(Throughput::Elements(37_231));
+    for (label, p) in [
+        ("1k", GenParams::new(4, 80.0, 1)),
+        ("5k", GenParams::new(10, 150.0, 1)),
+        ("large", GenParams::new(19, 172.0, 1)),
+        ("20k", GenParams::new(28, 230.0, 1)),
+    ] {
+        let scene = generate_scene(&p);
+        let mut r = Raycaster::new(&quiet, &scene).expect("raycaster");
+        let mut out = vec![[0.0f32; 3]; r.len()];
+        for tilted in [false, true] {
+            let pose = in_aisle(&p, tilted);
+            let kind = if tilted { "tilted" } else { "level" };
+            let n = scene.bodies.len();
+            g.bench_function(format!("{kind} {label} ({n} bodies)"), |b| {
+                b.iter(|| {
+                    r.scan(black_box(&pose), 0, &mut out).expect("scan");
+                    black_box(&out);
+                })
+            });
+        }
+    }
+    g.finish();
+}
+
+criterion_group!(benches, scans, generated);
 criterion_main!(benches);

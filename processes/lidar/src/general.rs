@@ -1,28 +1,49 @@
 //! The general path: a scan from a sensor with any orientation (rolled or pitched).
 //!
 //! Boxes become oriented boxes in the sensor frame, so each ray runs a 3D slab test.
-//! Per scan every box is moved to the sensor frame once and culled by range; per column
-//! only the boxes whose bounding sphere meets the column's half-plane are kept, in order
-//! of their nearest possible hit, so a ray stops early. Correct for every pose, but
-//! several times slower than `planar`; the simulator's robot stays level, so this is
-//! only used if a caller passes a tilted pose. Knows nothing of noise.
+//! Per scan the boxes near the sensor (the grid's superset of those within range) are
+//! moved to the sensor frame once, culled by range and by the elevations they span,
+//! and given the columns (their azimuths about the sensor z axis) they can occupy, from
+//! the box's sensor-frame bounding box. A sweep over columns keeps the boxes whose span
+//! covers the column; per column, where the column's vertical half-plane crosses a
+//! box's bounding box gives a lower bound on the distance of a hit and the elevations
+//! that can hit it, so a ray runs the slab test only on those, nearest first, and stops
+//! early. Which boxes are tested does not change the result (the nearest entry of
+//! every box that can be hit), so the points equal those of a test against every box.
+//! Knows nothing of noise.
 
 use crate::SensorPose;
+use crate::grid::Near;
 use crate::pattern::ScanPattern;
 use crate::world::World;
 
 /// An oriented box in the sensor frame.
 #[derive(Debug, Clone, Copy, Default)]
 struct SensorObb {
-    center: [f32; 3],
     /// Box axes in the sensor frame (rows).
     axes: [[f32; 3]; 3],
     /// Sensor origin in the box frame.
     origin: [f32; 3],
     half: [f32; 3],
-    radius: f32,
     /// Lower bound on the distance of any hit: |center| - radius.
     near: f32,
+    /// Centre and half extents (padded) of its bounding box in the sensor xy plane.
+    xy: [f32; 2],
+    ext: [f32; 2],
+    /// Its z interval in the sensor frame (padded).
+    z: [f32; 2],
+}
+
+/// Pads the sensor-frame bounding box in which a column's rays must meet a box, so
+/// rounding in f32 never drops a box the ray test would hit (metres).
+const PAD: f64 = 1e-3;
+
+/// Columns `c_lo..=c_hi` may see box `obb`.
+#[derive(Debug, Clone, Copy)]
+struct Span {
+    c_lo: u32,
+    c_hi: u32,
+    obb: u32,
 }
 
 /// A box as seen by one column: ray direction in the box frame is
@@ -34,19 +55,71 @@ struct Candidate {
     origin: [f32; 3],
     half: [f32; 3],
     near: f32,
+    /// Tangents of the elevations at which this column's rays can meet the box.
+    tan_lo: f32,
+    tan_hi: f32,
 }
 
 #[derive(Debug, Clone)]
 pub(crate) struct GeneralCaster {
     obbs: Vec<SensorObb>,
+    spans: Vec<Span>,
+    active: Vec<u32>,
     cands: Vec<Candidate>,
+    /// The candidates in order of `near`: its bits (never negative, so they sort as
+    /// integers) above the candidate's index.
+    order: Vec<u64>,
+    near: Near,
+}
+
+/// The pattern's angles and range, for spans.
+#[derive(Debug, Clone, Copy)]
+struct Grid {
+    range: f64,
+    rows: usize,
+    cols: usize,
+    el0: f64,
+    el_step: f64,
+    az0: f64,
+    az_step: f64,
+}
+
+impl Grid {
+    fn new(pattern: &ScanPattern) -> Grid {
+        let el = pattern.elevations();
+        let az = pattern.azimuths();
+        let (rows, cols) = (pattern.rows(), pattern.columns());
+        Grid {
+            range: pattern.max_range(),
+            rows,
+            cols,
+            el0: el[0],
+            el_step: if rows > 1 { el[1] - el[0] } else { 1.0 },
+            az0: az[0],
+            az_step: if cols > 1 { az[1] - az[0] } else { 1.0 },
+        }
+    }
+
+    /// Channels `lo..=hi` (one spare either way) for angles in [a_lo, a_hi] shifted by
+    /// `shift`, or `None` when none is in the pattern.
+    fn channels(a_lo: f64, a_hi: f64, a0: f64, step: f64, n: usize) -> Option<(u32, u32)> {
+        let lo = ((a_lo - a0) / step).ceil() - 1.0;
+        let hi = ((a_hi - a0) / step).floor() + 1.0;
+        let last = (n - 1) as f64;
+        (hi >= 0.0 && lo <= last).then(|| (lo.max(0.0) as u32, hi.min(last) as u32))
+    }
 }
 
 impl GeneralCaster {
     pub(crate) fn new(box_count: usize) -> GeneralCaster {
         GeneralCaster {
             obbs: Vec::with_capacity(box_count),
-            cands: Vec::with_capacity(box_count),
+            // A box can straddle the +-pi seam of a 360 deg scan: up to three spans.
+            spans: Vec::with_capacity(3 * box_count),
+            active: Vec::with_capacity(3 * box_count),
+            cands: Vec::with_capacity(3 * box_count),
+            order: Vec::with_capacity(3 * box_count),
+            near: Near::new(box_count),
         }
     }
 
@@ -59,16 +132,20 @@ impl GeneralCaster {
         out: &mut [[f32; 3]],
     ) -> usize {
         let range = pattern.max_range;
-        self.place_boxes(world, sensor, range);
+        let grid = Grid::new(pattern);
+        self.place_boxes(world, sensor, &grid);
+        self.spans.sort_unstable_by_key(|s| (s.c_lo, s.obb));
         let r = &sensor.rotation;
         let height = sensor.position[2];
         let rows = pattern.rows();
         let cols = pattern.columns();
         let mut hits = 0;
+        let mut next = 0;
+        self.active.clear();
         for col in 0..cols {
             let ca = pattern.cos_az[col];
             let sa = pattern.sin_az[col];
-            self.column_candidates(ca, sa);
+            next = self.column_candidates(col, next, ca, sa);
             // World z of the column's horizontal direction, for the floor.
             let gz_h = (r[2][0] * f64::from(ca) + r[2][1] * f64::from(sa)) as f32;
             for row in 0..rows {
@@ -84,7 +161,7 @@ impl GeneralCaster {
                         hit = true;
                     }
                 }
-                hit |= self.nearest_box(ce, se, &mut best);
+                hit |= self.nearest_box(pattern.tan_el[row], ce, se, &mut best);
                 out[row * cols + col] = if hit {
                     hits += 1;
                     let d = pattern.direction(row, col);
@@ -97,11 +174,18 @@ impl GeneralCaster {
         hits
     }
 
-    /// Moves every enabled box into the sensor frame, drops those that hold the sensor
-    /// or lie beyond `range`, and sorts the rest by their nearest possible hit.
-    fn place_boxes(&mut self, world: &World, sensor: &SensorPose, range: f32) {
+    /// Moves every enabled box near the sensor into the sensor frame, drops those that
+    /// hold the sensor, lie beyond range or outside every row, and lists the columns
+    /// each may cover.
+    fn place_boxes(&mut self, world: &World, sensor: &SensorPose, grid: &Grid) {
         self.obbs.clear();
-        for b in world.enabled_boxes() {
+        self.spans.clear();
+        let centre = [sensor.position[0], sensor.position[1]];
+        world.gather_near(centre, grid.range, &mut self.near);
+        for k in 0..self.near.list.len() {
+            let Some(b) = world.enabled_box(self.near.list[k]) else {
+                continue;
+            };
             let zc = 0.5 * (b.z_min + b.z_max);
             let rel = [
                 b.center[0] - sensor.position[0],
@@ -123,52 +207,132 @@ impl GeneralCaster {
             }
             let radius = (half[0] * half[0] + half[1] * half[1] + half[2] * half[2]).sqrt();
             let near = dot(c, c).sqrt() - radius;
-            if near > f64::from(range) {
+            if near > grid.range {
                 continue;
             }
+            // Half extents of the box's bounding box in the sensor frame.
+            let ext: [f64; 3] =
+                std::array::from_fn(|j| (0..3).map(|i| axes[i][j].abs() * half[i]).sum::<f64>());
+            if rows(grid, c, ext).is_none() {
+                continue;
+            }
+            let index = self.obbs.len() as u32;
             self.obbs.push(SensorObb {
-                center: c.map(|v| v as f32),
                 axes: axes.map(|a| a.map(|v| v as f32)),
                 origin: origin.map(|v| v as f32),
                 half: half.map(|v| v as f32),
-                radius: radius as f32,
                 near: near as f32,
+                xy: [c[0] as f32, c[1] as f32],
+                ext: [(ext[0] + PAD) as f32, (ext[1] + PAD) as f32],
+                z: [(c[2] - ext[2] - PAD) as f32, (c[2] + ext[2] + PAD) as f32],
             });
+            self.push_spans(grid, c, ext, &axes, &half, index);
         }
-        self.obbs.sort_unstable_by(|a, b| a.near.total_cmp(&b.near));
     }
 
-    /// Keeps, in order of nearest hit, the boxes whose bounding sphere meets the
-    /// half-plane of the column at azimuth (cos `ca`, sin `sa`).
+    /// The columns that may see a box centred at `c` with sensor-frame half extents
+    /// `ext`: every column if the sensor z axis meets its bounding box, else the
+    /// azimuths of its eight corners, once per copy shifted by a turn.
+    fn push_spans(
+        &mut self,
+        grid: &Grid,
+        c: [f64; 3],
+        ext: [f64; 3],
+        axes: &[[f64; 3]; 3],
+        half: &[f64; 3],
+        obb: u32,
+    ) {
+        let last = (grid.cols - 1) as u32;
+        if c[0].abs() <= ext[0] && c[1].abs() <= ext[1] {
+            self.spans.push(Span {
+                c_lo: 0,
+                c_hi: last,
+                obb,
+            });
+            return;
+        }
+        // The box's projection misses the z axis, so its azimuths lie within a half
+        // turn of the centre's.
+        let ac = c[1].atan2(c[0]);
+        let (mut dlo, mut dhi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for k in 0..8 {
+            let sgn = |bit: usize| if k & bit == 0 { 1.0 } else { -1.0 };
+            let s = [sgn(1) * half[0], sgn(2) * half[1], sgn(4) * half[2]];
+            let px = c[0] + s[0] * axes[0][0] + s[1] * axes[1][0] + s[2] * axes[2][0];
+            let py = c[1] + s[0] * axes[0][1] + s[1] * axes[1][1] + s[2] * axes[2][1];
+            let d = aisle_geometry::wrap_angle(py.atan2(px) - ac);
+            dlo = dlo.min(d);
+            dhi = dhi.max(d);
+        }
+        for shift in [-std::f64::consts::TAU, 0.0, std::f64::consts::TAU] {
+            let (lo, hi) = (ac + dlo + shift, ac + dhi + shift);
+            if let Some((c_lo, c_hi)) = Grid::channels(lo, hi, grid.az0, grid.az_step, grid.cols) {
+                self.spans.push(Span { c_lo, c_hi, obb });
+            }
+        }
+    }
+
+    /// Updates the active spans for column `col` (spans from `next` on start at or
+    /// after it) and keeps their boxes, in order of nearest possible hit, as seen along
+    /// the column's azimuth (cos `ca`, sin `sa`). Returns the new `next`.
     #[inline]
-    fn column_candidates(&mut self, ca: f32, sa: f32) {
+    fn column_candidates(&mut self, col: usize, mut next: usize, ca: f32, sa: f32) -> usize {
+        while next < self.spans.len() && self.spans[next].c_lo as usize <= col {
+            self.active.push(next as u32);
+            next += 1;
+        }
+        let spans = &self.spans;
+        self.active
+            .retain(|&si| spans[si as usize].c_hi as usize >= col);
         self.cands.clear();
-        for o in &self.obbs {
-            // The column's rays lie in the half-plane spanned by (ca, sa, 0), cos e >= 0,
-            // and the sensor z axis.
-            let across = -sa * o.center[0] + ca * o.center[1];
-            let along = ca * o.center[0] + sa * o.center[1];
-            if across.abs() > o.radius || along < -o.radius {
+        self.order.clear();
+        for &si in &self.active {
+            let o = &self.obbs[spans[si as usize].obb as usize];
+            // A ray of this column at distance t is t cos e along (ca, sa) in the xy
+            // plane, so it can meet the box only where that 2D ray crosses the box's
+            // xy bounding box, at s_in <= t cos e <= t.
+            let Some((sx0, sx1)) = slab(-o.xy[0], ca, o.ext[0]) else {
+                continue;
+            };
+            let Some((sy0, sy1)) = slab(-o.xy[1], sa, o.ext[1]) else {
+                continue;
+            };
+            let s_in = sx0.max(sy0).max(0.0);
+            let s_out = sx1.min(sy1);
+            if s_in > s_out {
                 continue;
             }
+            let (tan_lo, tan_hi) = tan_bounds(s_in, s_out, o.z);
+            // + 0.0 turns a -0.0 into 0.0, whose bits sort first.
+            let near = o.near.max(s_in) + 0.0;
+            self.order
+                .push((u64::from(near.to_bits()) << 32) | self.cands.len() as u64);
             self.cands.push(Candidate {
                 a: o.axes.map(|ax| ax[0] * ca + ax[1] * sa),
                 b: o.axes.map(|ax| ax[2]),
                 origin: o.origin,
                 half: o.half,
-                near: o.near,
+                near,
+                tan_lo,
+                tan_hi,
             });
         }
+        self.order.sort_unstable();
+        next
     }
 
     /// Lowers `best` to the nearest entry into a candidate of the ray at elevation
-    /// (cos `ce`, sin `se`) of the current column; whether any candidate was hit.
+    /// (tan `tan_e`, cos `ce`, sin `se`) of the current column; whether any was hit.
     #[inline]
-    fn nearest_box(&self, ce: f32, se: f32, best: &mut f32) -> bool {
+    fn nearest_box(&self, tan_e: f32, ce: f32, se: f32, best: &mut f32) -> bool {
         let mut hit = false;
-        for cand in &self.cands {
+        for &key in &self.order {
+            let cand = &self.cands[(key & 0xffff_ffff) as usize];
             if cand.near > *best {
                 break;
+            }
+            if tan_e < cand.tan_lo || tan_e > cand.tan_hi {
+                continue;
             }
             if let Some(t) = entry(cand, ce, se)
                 && t <= *best
@@ -181,8 +345,63 @@ impl GeneralCaster {
     }
 }
 
+/// The rows that may see a box centred at `c` with sensor-frame half extents `ext`
+/// (one spare channel either way), or `None` when it is beyond range or outside every
+/// row. Its points have height in [z0, z1] and distance from the z axis in
+/// [dmin, dmax], which bound their elevations.
+fn rows(grid: &Grid, c: [f64; 3], ext: [f64; 3]) -> Option<(u32, u32)> {
+    let ex = (c[0].abs() - ext[0]).max(0.0);
+    let ey = (c[1].abs() - ext[1]).max(0.0);
+    let dmin = ex.hypot(ey);
+    if dmin > grid.range {
+        return None;
+    }
+    let dmax = (c[0].abs() + ext[0])
+        .hypot(c[1].abs() + ext[1])
+        .min(grid.range);
+    let (z0, z1) = (c[2] - ext[2], c[2] + ext[2]);
+    let e_hi = z1.atan2(if z1 > 0.0 { dmin } else { dmax });
+    let e_lo = z0.atan2(if z0 > 0.0 { dmax } else { dmin });
+    Grid::channels(e_lo, e_hi, grid.el0, grid.el_step, grid.rows)
+}
+
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// The tangents of the elevations of the points at horizontal distance in [`s_in`,
+/// `s_out`] and height in `z` (sensor frame): where a ray of the column can meet a box
+/// whose bounding box gives those.
+#[inline]
+fn tan_bounds(s_in: f32, s_out: f32, z: [f32; 2]) -> (f32, f32) {
+    if s_out.is_nan() || s_out <= 0.0 {
+        return (f32::NEG_INFINITY, f32::INFINITY);
+    }
+    let over = |v: f32| {
+        if s_in > 0.0 {
+            v / s_in
+        } else {
+            v.signum() * f32::INFINITY
+        }
+    };
+    let hi = if z[1] > 0.0 { over(z[1]) } else { z[1] / s_out };
+    let lo = if z[0] < 0.0 { over(z[0]) } else { z[0] / s_out };
+    (lo, hi)
+}
+
+/// Ray parameter interval inside the slab |o + t d| <= h, or `None` if it misses.
+#[inline]
+fn slab(o: f32, d: f32, h: f32) -> Option<(f32, f32)> {
+    if d != 0.0 {
+        let inv = 1.0 / d;
+        let ta = (-h - o) * inv;
+        let tb = (h - o) * inv;
+        Some((ta.min(tb), ta.max(tb)))
+    } else if o.abs() <= h {
+        Some((f32::NEG_INFINITY, f32::INFINITY))
+    } else {
+        None
+    }
 }
 
 /// Entry distance of the ray into the box, if it enters at t >= 0.

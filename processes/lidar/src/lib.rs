@@ -42,6 +42,7 @@
 
 mod error;
 mod general;
+mod grid;
 pub mod node;
 mod noise;
 mod pattern;

@@ -12,6 +12,7 @@
 //!
 //! Knows nothing of noise or of the general (tilted) case.
 
+use crate::grid::Near;
 use crate::pattern::ScanPattern;
 use crate::world::{World, WorldBox};
 
@@ -59,7 +60,11 @@ pub(crate) struct PlanarCaster {
     spans: Vec<Span>,
     active: Vec<u32>,
     cands: Vec<Candidate>,
+    /// The candidates in order of `s_in`: its bits (never negative, so they sort as
+    /// integers) above the candidate's index.
+    order: Vec<u64>,
     floor_s: Vec<f32>,
+    near: Near,
 }
 
 /// Origins this close to a box's outline count as inside it for the azimuth span, where
@@ -74,7 +79,9 @@ impl PlanarCaster {
             spans: Vec::with_capacity(3 * box_count),
             active: Vec::with_capacity(3 * box_count),
             cands: Vec::with_capacity(3 * box_count),
+            order: Vec::with_capacity(3 * box_count),
             floor_s: vec![f32::INFINITY; rows],
+            near: Near::new(box_count),
         }
     }
 
@@ -93,7 +100,8 @@ impl PlanarCaster {
         self.sweep(pattern, out)
     }
 
-    /// Moves every enabled box into the sensor frame, culls it, and lists the columns
+    /// Moves every enabled box near the sensor (the grid's superset of those within
+    /// range) into the sensor frame, culls it, and lists the columns
     /// and rows it may cover, sorted for the column sweep; fills the floor distances.
     fn prepare(
         &mut self,
@@ -107,7 +115,11 @@ impl PlanarCaster {
         self.spans.clear();
         let frame = Frame::new(pattern, origin, yaw);
         self.floor_distances(pattern, origin, hit_floor);
-        for b in world.enabled_boxes() {
+        world.gather_near([origin[0], origin[1]], frame.range, &mut self.near);
+        for k in 0..self.near.list.len() {
+            let Some(b) = world.enabled_box(self.near.list[k]) else {
+                continue;
+            };
             let Some(p) = frame.place(b) else {
                 continue;
             };
@@ -208,6 +220,7 @@ impl PlanarCaster {
             let ca = pattern.cos_az[c];
             let sa = pattern.sin_az[c];
             self.cands.clear();
+            self.order.clear();
             for &si in &self.active {
                 let b = &self.sboxes[self.spans[si as usize].sbox as usize];
                 let du = ca * b.ux + sa * b.uy;
@@ -218,9 +231,12 @@ impl PlanarCaster {
                 let Some((v0, v1)) = slab(b.ov, dv, b.hy) else {
                     continue;
                 };
-                let s_in = u0.max(v0).max(0.0);
+                // + 0.0 turns a -0.0 into 0.0, whose bits sort first.
+                let s_in = u0.max(v0).max(0.0) + 0.0;
                 let s_out = u1.min(v1);
                 if s_in <= s_out && s_in <= range {
+                    let key = (u64::from(s_in.to_bits()) << 32) | self.cands.len() as u64;
+                    self.order.push(key);
                     self.cands.push(Candidate {
                         s_in,
                         s_out,
@@ -231,8 +247,7 @@ impl PlanarCaster {
                     });
                 }
             }
-            self.cands
-                .sort_unstable_by(|a, b| a.s_in.total_cmp(&b.s_in));
+            self.order.sort_unstable();
 
             for r in 0..rows {
                 let k = pattern.tan_el[r];
@@ -242,7 +257,8 @@ impl PlanarCaster {
                     best = self.floor_s[r];
                     hit = true;
                 }
-                for cand in &self.cands {
+                for &key in &self.order {
+                    let cand = &self.cands[(key & 0xffff_ffff) as usize];
                     if cand.s_in > best {
                         break;
                     }

@@ -2,10 +2,12 @@
 //! change between scans (the carried rack, any movable body).
 //!
 //! Each box keeps its part geometry (body frame) and its world placement (planar centre,
-//! yaw, z interval). Moving a body rewrites only that body's boxes. Knows nothing of rays
-//! or of the sensor.
+//! yaw, z interval). Moving a body rewrites only that body's boxes and re-buckets them in
+//! the grid index (`grid.rs`), through which a scan gathers the boxes near the sensor.
+//! Knows nothing of rays or of the sensor.
 
 use crate::error::LidarError;
+use crate::grid::{self, BoxGrid, Near};
 use aisle_config::scene::Scene;
 use aisle_geometry::Pose2;
 
@@ -23,6 +25,13 @@ pub struct WorldBox {
     pub z_max: f64,
 }
 
+impl WorldBox {
+    /// Its axis-aligned rectangle on the floor plane: x0, y0, x1, y1.
+    pub fn bounds(&self) -> [f64; 4] {
+        grid::bounds(self.center, self.half, self.yaw)
+    }
+}
+
 #[derive(Debug, Clone)]
 struct BodyEntry {
     name: String,
@@ -35,6 +44,7 @@ struct BodyEntry {
 pub struct World {
     bodies: Vec<BodyEntry>,
     boxes: Vec<WorldBox>,
+    grid: BoxGrid,
 }
 
 impl World {
@@ -73,13 +83,20 @@ impl World {
                 boxes: start..boxes.len(),
             });
         }
-        let mut w = World { bodies, boxes };
+        let mut w = World {
+            bodies,
+            boxes,
+            grid: BoxGrid::new(&[]),
+        };
         for i in 0..w.bodies.len() {
             w.place(i);
         }
+        let rects: Vec<[f64; 4]> = w.boxes.iter().map(WorldBox::bounds).collect();
+        w.grid = BoxGrid::new(&rects);
         Ok(w)
     }
 
+    /// Places the boxes of `body` at its pose (the grid is the caller's business).
     fn place(&mut self, body: usize) {
         let e = &self.bodies[body];
         for b in &mut self.boxes[e.boxes.clone()] {
@@ -110,6 +127,9 @@ impl World {
         }
         self.bodies[index].pose = pose;
         self.place(index);
+        for i in self.bodies[index].boxes.clone() {
+            self.grid.update(i, &self.boxes[i].bounds());
+        }
         Ok(())
     }
 
@@ -145,5 +165,19 @@ impl World {
         self.boxes
             .iter()
             .filter(|b| self.bodies[b.body as usize].enabled)
+    }
+
+    /// Lists in `near.list`, in box order, the boxes that may lie within `radius`
+    /// (metres, horizontally) of `center`: a superset, through the grid. `near` is the
+    /// caller's scratch, so nothing is allocated once it has grown.
+    pub(crate) fn gather_near(&self, center: [f64; 2], radius: f64, near: &mut Near) {
+        self.grid.gather(center, radius, near);
+    }
+
+    /// Box `index` if its body is enabled.
+    #[inline]
+    pub(crate) fn enabled_box(&self, index: u32) -> Option<&WorldBox> {
+        let b = &self.boxes[index as usize];
+        self.bodies[b.body as usize].enabled.then_some(b)
     }
 }

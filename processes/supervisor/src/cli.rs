@@ -157,6 +157,8 @@ arguments, unwritable output directory)."
     Export(crate::export_cli::ExportCommand),
     #[command(flatten)]
     Install(install::InstallCommand),
+    #[command(flatten)]
+    Scene(crate::scene_cli::SceneCommand),
     /// Run one node of a process group (started by `aisle run`, not by hand).
     #[command(hide = true)]
     Node(NodeCmd),
@@ -244,6 +246,7 @@ pub fn main() -> ExitCode {
         Command::Gen(c) => crate::gen_cli::main(c),
         Command::Export(c) => crate::export_cli::main(c),
         Command::Install(c) => install::main(c),
+        Command::Scene(c) => crate::scene_cli::main(c),
         Command::Scenario {
             command:
                 ScenarioCommand::Generate {

@@ -43,6 +43,7 @@ pub mod report;
 pub mod restart;
 pub mod scenario;
 pub mod scenario_cli;
+pub mod scene_cli;
 pub mod session;
 pub mod sweep;
 pub mod usage;
