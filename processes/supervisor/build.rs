@@ -1,4 +1,5 @@
-//! Build script of `aisle`: embeds every file under the workspace's `config/` (so an
+//! Build script of `aisle`: embeds every file under the workspace's `config/` but the
+//! config directories of their own inside it (so an
 //! installed binary carries its default config, and a file added there cannot be
 //! forgotten) and records the git commit the binary was built from ("unknown" outside a
 //! git checkout, e.g. a source tarball: that never fails the build).
@@ -36,7 +37,11 @@ fn collect(root: &Path, dir: &Path, files: &mut Vec<String>) {
     for entry in entries {
         let path = entry.expect("a directory entry").path();
         if path.is_dir() {
-            collect(root, &path, files);
+            // A directory with a scene of its own (`config/large/`) is another config
+            // directory, run with `--config-dir`, not part of the built-in one.
+            if !path.join("warehouse.toml").exists() {
+                collect(root, &path, files);
+            }
         } else if path.is_file() {
             let rel = path.strip_prefix(root).expect("under the root");
             let parts: Vec<String> = rel

@@ -169,7 +169,8 @@ fn leg(l: &Leg) -> Table {
     t
 }
 
-/// Copies every file under `from` into `to`, keeping the tree.
+/// Copies every file under `from` into `to`, keeping the tree, but for subdirectories
+/// that are config directories of their own (a `warehouse.toml` in them: `large/`).
 pub fn copy_tree(from: &Path, to: &Path) -> Result<(), String> {
     std::fs::create_dir_all(to).map_err(|e| format!("{}: {e}", to.display()))?;
     let entries = std::fs::read_dir(from).map_err(|e| format!("{}: {e}", from.display()))?;
@@ -178,7 +179,9 @@ pub fn copy_tree(from: &Path, to: &Path) -> Result<(), String> {
     for e in entries {
         let (src, dst) = (e.path(), to.join(e.file_name()));
         if src.is_dir() {
-            copy_tree(&src, &dst)?;
+            if !src.join("warehouse.toml").exists() {
+                copy_tree(&src, &dst)?;
+            }
         } else {
             std::fs::copy(&src, &dst).map_err(|e| format!("{}: {e}", src.display()))?;
         }
