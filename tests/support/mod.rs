@@ -252,7 +252,10 @@ pub fn config_with_graph(dir: &TestDir, extra: &str) -> PathBuf {
     std::fs::create_dir_all(&config).unwrap();
     for entry in std::fs::read_dir(config_dir()).unwrap() {
         let path = entry.unwrap().path();
-        std::fs::copy(&path, config.join(path.file_name().unwrap())).unwrap();
+        // Files only: `large/` is a config directory of its own.
+        if path.is_file() {
+            std::fs::copy(&path, config.join(path.file_name().unwrap())).unwrap();
+        }
     }
     let mut graph = std::fs::read_to_string(config.join("graph.toml")).unwrap();
     graph.push_str(extra);

@@ -1,23 +1,24 @@
 //! Clearing along rays, visiting only the cells that can change: the detected ones.
 //!
-//! A detection is forgotten when a ray of a later scan passes through the return that
-//! marked it (within a radius, `obstacles.clear_radius`) and goes on: whatever was
-//! there is gone. Passing through the detection's *cell* is not enough. A wall's face
-//! fills only part of the cells that hold it, and the lidar sees the face alone, so a
-//! ray grazing along the face crosses every one of those cells without a hit; clearing
-//! on "crosses the cell" erased walls seen earlier (an aisle sweep backed the robot
-//! into one it had lost that way).
+//! A detection is forgotten when a ray of a later scan passes through the middle of its
+//! cell (within a radius of the centre, `obstacles.clear_radius`), goes on beyond it, and
+//! crosses the surface the cell is part of rather than running along it. Crossing the
+//! cell is not enough: a wall's face fills only part of the cells that hold it, and the
+//! lidar sees the face alone, so a ray grazing along the face crosses every one of those
+//! cells without a hit; clearing on "crosses the cell" erased walls seen earlier (an
+//! aisle sweep backed the robot into one it had lost that way). The rule needs no state
+//! beyond the grid, so a restarted mapper that takes its grid back clears exactly as
+//! the one before it.
 //!
 //! Walking every ray cell by cell costs ~1,200 rays x ~100 cells per scan, nearly all
 //! of them free cells where there is nothing to clear. Detections are sparse, so instead
 //! each detected cell asks the few rays whose bearing falls within the cell's angular
-//! extent whether one passes through its return. The rays' bearings are indexed in an
-//! angular table built once per scan; a cell right next to the sensor is asked only of
-//! the rays nearest its centre's bearing (`MAX_BINS_PER_SIDE`).
+//! extent whether one passes through it. The rays' bearings are indexed in an angular
+//! table built once per scan; a cell right next to the sensor is asked only of the rays
+//! nearest its centre's bearing (`MAX_BINS_PER_SIDE`).
 //!
-//! Knows grids only as `&mut [u8]` with a width and height, in cell units, and the
-//! returns as positions within their cells; knows nothing of lidars or of the map's
-//! other layers.
+//! Knows grids only as `&mut [u8]` with a width and height, in cell units; knows
+//! nothing of lidars or of the map's other layers.
 
 use aisle_geometry::OCCUPIED_DETECTED;
 use std::f32::consts::{PI, TAU};
@@ -60,20 +61,6 @@ impl Flagged {
             self.hi = self.hi.max(i);
         }
     }
-}
-
-/// Where in its cell the return that marked a detection lies, in 1/256ths of a cell
-/// along x and y (the centre for a detection whose return is not known).
-pub(crate) type Sighting = [u8; 2];
-
-/// The centre of a cell, as a [`Sighting`].
-pub(crate) const CELL_CENTRE: Sighting = [128, 128];
-
-/// The sighting of a return at (gx, gy), cell units.
-#[inline(always)]
-pub(crate) fn sighting(gx: f32, gy: f32) -> Sighting {
-    let frac = |v: f32| ((v - v.floor()) * 256.0).min(255.0) as u8;
-    [frac(gx), frac(gy)]
 }
 
 /// One ray's clearing segment in the plane, cell units, from the sensor's 2D position.
@@ -168,9 +155,9 @@ impl RayClearing {
         }
     }
 
-    /// Whether ray `r` clears the detection of cell (ix, iy) whose return is at `p`
-    /// (cell units): the ray passes within the radius of `p` inside its clearing stretch
-    /// and ends a radius beyond it, and the cell is not the ray's own return.
+    /// Whether ray `r` clears the detection of cell (ix, iy) whose centre is `p` (cell
+    /// units): the ray passes within the radius of `p` inside its clearing stretch and
+    /// ends a radius beyond it, and the cell is not the ray's own return.
     #[inline]
     fn passes_through(&self, r: &Ray, ix: i64, iy: i64, p: (f32, f32)) -> bool {
         if r.rb <= r.ra || (ix, iy) == r.end {
@@ -183,16 +170,8 @@ impl RayClearing {
         across <= self.radius && along >= r.ra && along <= r.rb - beyond
     }
 
-    /// Flags every detected cell of `cells` (`w` x `h`, row-major) that a ray clears;
-    /// `seen` holds where in each cell its detection's return lies.
-    pub fn apply(
-        &self,
-        cells: &mut [u8],
-        seen: &[Sighting],
-        w: usize,
-        h: usize,
-        flagged: &mut Flagged,
-    ) {
+    /// Flags every detected cell of `cells` (`w` x `h`, row-major) that a ray clears.
+    pub fn apply(&self, cells: &mut [u8], w: usize, h: usize, flagged: &mut Flagged) {
         if w == 0 || h == 0 || self.bbox[0] > self.bbox[2] {
             return;
         }
@@ -217,7 +196,7 @@ impl RayClearing {
                 if any {
                     for ix in x..end {
                         if cells[row0 + ix] == OCCUPIED_DETECTED
-                            && self.clears(cells, (w, h), (ix, iy), seen[row0 + ix])
+                            && self.clears(cells, (w, h), (ix, iy))
                         {
                             flagged.flag(cells, row0 + ix);
                         }
@@ -229,18 +208,9 @@ impl RayClearing {
     }
 
     /// Whether any ray whose bearing lies within the cell's angular extent (grown by the
-    /// radius) passes through its return, across the surface the cell is part of.
-    fn clears(
-        &self,
-        cells: &[u8],
-        (w, h): (usize, usize),
-        (ix, iy): (usize, usize),
-        seen: Sighting,
-    ) -> bool {
-        let p = (
-            ix as f32 + f32::from(seen[0]) / 256.0,
-            iy as f32 + f32::from(seen[1]) / 256.0,
-        );
+    /// radius) passes through its centre, across the surface the cell is part of.
+    fn clears(&self, cells: &[u8], (w, h): (usize, usize), (ix, iy): (usize, usize)) -> bool {
+        let p = (ix as f32 + 0.5, iy as f32 + 0.5);
         let (cx, cy) = (
             ix as f32 + 0.5 - self.sensor.0,
             iy as f32 + 0.5 - self.sensor.1,
@@ -363,10 +333,7 @@ mod tests {
                 rays.push(((a.cos(), a.sin()), ta * range, range, hit.then_some(endc)));
             }
             // Every other cell of every other row detected (isolated: no surface for a
-            // ray to run along), its return anywhere in it.
-            let seen: Vec<Sighting> = (0..w * h)
-                .map(|_| sighting(rng.next(), rng.next()))
-                .collect();
+            // ray to run along).
             let mut cells: Vec<u8> = (0..w * h)
                 .map(|i| {
                     if (i % w) % 2 == 0 && (i / w) % 2 == 0 {
@@ -377,7 +344,7 @@ mod tests {
                 })
                 .collect();
             let mut f = Flagged::NONE;
-            rc.apply(&mut cells, &seen, w, h, &mut f);
+            rc.apply(&mut cells, w, h, &mut f);
             let (mut differ, mut cleared) = (0, 0);
             for (i, &c) in cells.iter().enumerate() {
                 let (ix, iy) = ((i % w) as i64, (i / w) as i64);
@@ -388,10 +355,7 @@ mod tests {
                 if ((x - sensor.0).powi(2) + (y - sensor.1).powi(2)).sqrt() < 3.0 {
                     continue;
                 }
-                let p = (
-                    ix as f32 + f32::from(seen[i][0]) / 256.0,
-                    iy as f32 + f32::from(seen[i][1]) / 256.0,
-                );
+                let p = (ix as f32 + 0.5, iy as f32 + 0.5);
                 let want = brute_force(sensor, &rays, radius, (ix, iy), p);
                 cleared += usize::from(want);
                 if (c == PENDING_CLEAR) != want {
@@ -404,36 +368,34 @@ mod tests {
         }
     }
 
-    /// A ray along a wall's face, a few centimetres off it, crosses the cells that hold
-    /// the face without passing through the returns that marked them: they stay.
+    /// A ray along a wall's face, through the middle of the cells that hold the face,
+    /// runs along the surface: they stay. A ray across the face clears what it crosses.
     #[test]
-    fn a_ray_grazing_a_face_keeps_it() {
-        // Cells of 0.1 m; the face at x = 0.033 m into cells of column 5, returns on it.
+    fn a_ray_along_a_face_keeps_it() {
+        // Cells of 0.1 m; a face in column 5.
         let (w, h) = (10usize, 30usize);
         let mut cells = vec![0u8; w * h];
-        let mut seen = vec![CELL_CENTRE; w * h];
         for iy in 5..25 {
             cells[iy * w + 5] = OCCUPIED_DETECTED;
-            seen[iy * w + 5] = sighting(5.33, iy as f32 + 0.5);
         }
-        let mut rc = RayClearing::new(2);
+        let mut rc = RayClearing::new(1);
         // 0.01 m in cells of 0.1 m.
         rc.begin((5.5, 29.5), 0.1);
-        // Straight down the column, 1.7 cm beside the face: no hit until the floor.
+        // Straight down the column's middle: no hit until the floor.
         rc.set(0, (5.5, 0.5), 0.0, 1.0, false);
         let mut f = Flagged::NONE;
-        rc.apply(&mut cells, &seen, w, h, &mut f);
+        rc.apply(&mut cells, w, h, &mut f);
         assert!(!cells.contains(&PENDING_CLEAR));
-        // Even one through the returns runs along the face: it sees the face edge on.
-        rc.begin((5.33, 29.5), 0.1);
-        rc.set(1, (5.33, 0.5), 0.0, 1.0, false);
-        rc.apply(&mut cells, &seen, w, h, &mut f);
-        assert!(!cells.contains(&PENDING_CLEAR));
-        // A ray across the face, through one of its returns (gone), clears that one.
+        // A ray across the face through the middle of one of its cells (gone) clears it.
         rc.begin((9.5, 10.5), 0.1);
         rc.set(0, (0.5, 10.5), 0.0, 1.0, false);
-        rc.apply(&mut cells, &seen, w, h, &mut f);
+        rc.apply(&mut cells, w, h, &mut f);
         assert_eq!(cells[10 * w + 5], PENDING_CLEAR);
+        assert_eq!(cells.iter().filter(|&&c| c == PENDING_CLEAR).count(), 1);
+        // One a cell apart from the middle, a little off its centre, does not.
+        rc.begin((9.5, 12.65), 0.1);
+        rc.set(0, (0.5, 12.65), 0.0, 1.0, false);
+        rc.apply(&mut cells, w, h, &mut f);
         assert_eq!(cells.iter().filter(|&&c| c == PENDING_CLEAR).count(), 1);
     }
 
@@ -445,7 +407,7 @@ mod tests {
         // Detections apart (no surface along the ray), one static cell, the return last.
         let mut cells = vec![0u8, 2, 0, 1, 0, 2, 0, 2, 0, 2];
         let mut f = Flagged::NONE;
-        rc.apply(&mut cells, &[CELL_CENTRE; 10], 10, 1, &mut f);
+        rc.apply(&mut cells, 10, 1, &mut f);
         assert_eq!(cells, vec![0, 3, 0, 1, 0, 3, 0, 3, 0, 2]);
         assert_eq!((f.lo, f.hi), (1, 7));
     }

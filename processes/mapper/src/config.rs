@@ -49,10 +49,10 @@ pub struct ObstacleConfig {
     /// every side, metres, so range noise on their own edges is not taken for obstacles.
     pub ignore_margin: f64,
     /// A ray clears a detection only where it passes within this distance, metres, of
-    /// the return that marked it (the ray passes through where the obstacle was seen).
-    /// A cell holding a wall's face is only partly free: a ray grazing along the face
-    /// crosses the cell without hitting anything, and clearing on "crosses the cell"
-    /// erased walls the robot had seen and later backed into.
+    /// the cell's centre (and crosses the surface the cell is part of). A cell holding a
+    /// wall's face is only partly free: a ray grazing along the face crosses the cell
+    /// without hitting anything, and clearing on "crosses the cell" erased walls the
+    /// robot had seen and later backed into.
     pub clear_radius: f64,
 }
 

@@ -72,8 +72,7 @@ impl Mapper {
                 max: MAX_GRID_SIDE,
             });
         }
-        let mut layer = ObstacleLayer::new(&cfg.obstacles, beams)?;
-        layer.prepare(&static_map);
+        let layer = ObstacleLayer::new(&cfg.obstacles, beams)?;
         Ok(Self {
             global: static_map.clone(),
             placed: PlacedLayer::new(static_map.clone()),

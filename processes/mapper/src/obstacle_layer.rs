@@ -10,10 +10,10 @@
 //!    seed's level lidar) clears. Its 2D projection clears from the sensor to just
 //!    before its return, or to `max_range` along the ray when it has none, and only over
 //!    the part of the ray that lies inside the obstacle height band. A detection on the
-//!    way becomes free when the ray passes through the return that marked it (within
-//!    `clear_radius`) and crosses the surface that return is part of, rather than
-//!    running along it (the private `clearing` module says why); static cells are never
-//!    touched. Only detected cells are visited, not every cell of every ray.
+//!    way becomes free when the ray passes through the middle of its cell (within
+//!    `clear_radius` of the centre) and crosses the surface the cell is part of, rather
+//!    than running along it (the private `clearing` module says why); static cells are
+//!    never touched. Only detected cells are visited, not every cell of every ray.
 //!    *Why the lowest ray only:* a ray proves a column empty only at its own height. A
 //!    higher ray passing over a low obstacle (a 0.9 m pallet stack seen by the rows below)
 //!    would erase it, and would erase anything hidden behind it. The lowest ray passes
@@ -35,7 +35,7 @@
 //! lowest ray crosses them. The update allocates nothing: the beam and ray tables are built once.
 //! Knows nothing of the bus, the scene or how the map is published.
 
-use crate::clearing::{CELL_CENTRE, Flagged, PENDING_CLEAR, RayClearing, Sighting, sighting};
+use crate::clearing::{Flagged, PENDING_CLEAR, RayClearing};
 use crate::cloud::{BeamGeometry, OrganizedCloud, SensorPose};
 use crate::config::ObstacleConfig;
 use crate::error::MapError;
@@ -124,10 +124,6 @@ pub struct ObstacleLayer {
     sin_az: Vec<f32>,
     /// Per-scan ray tables, reused so an update allocates nothing.
     clearing: RayClearing,
-    /// Per grid cell, where the return that last marked it lies in the cell: a ray
-    /// clears a detection only by passing through that return. Sized on the first
-    /// update (the grid's size never changes).
-    seen: Vec<Sighting>,
 }
 
 impl ObstacleLayer {
@@ -143,18 +139,7 @@ impl ObstacleLayer {
             cos_az: az.iter().map(|a| a.cos() as f32).collect(),
             sin_az: az.iter().map(|a| a.sin() as f32).collect(),
             clearing: RayClearing::new(beams.cols),
-            seen: Vec::new(),
         })
-    }
-
-    /// Sizes the layer's per-cell tables for `grid`, so that updates allocate nothing
-    /// (an update does it too, once, when not done before). Detections already in the
-    /// grid count as seen at their cells' centres.
-    pub fn prepare(&mut self, grid: &GridMap) {
-        if self.seen.len() != grid.cells.len() {
-            self.seen.clear();
-            self.seen.resize(grid.cells.len(), CELL_CENTRE);
-        }
     }
 
     pub fn beams(&self) -> &BeamGeometry {
@@ -196,7 +181,6 @@ impl ObstacleLayer {
         let n_zones = self.zones(scan, &frame, &mut zones)?;
         let zones = &zones[..n_zones];
 
-        self.prepare(grid);
         let mut stats = ScanStats::default();
         let mut flagged = Flagged::NONE;
         self.clear_along_lowest_rays(grid, scan, &frame, &mut flagged);
@@ -307,12 +291,11 @@ impl ObstacleLayer {
             }
             self.clearing.set(c, (end[0], end[1]), ta, tb, hit);
         }
-        self.clearing
-            .apply(&mut grid.cells, &self.seen, w, h, flagged);
+        self.clearing.apply(&mut grid.cells, w, h, flagged);
     }
 
     fn mark(
-        &mut self,
+        &self,
         grid: &mut GridMap,
         cloud: &OrganizedCloud<'_>,
         f: &GridFrame,
@@ -350,9 +333,6 @@ impl ObstacleLayer {
                 }
                 PENDING_CLEAR => cells[i] = OCCUPIED_DETECTED,
                 _ => {}
-            }
-            if cells[i] == OCCUPIED_DETECTED {
-                self.seen[i] = sighting(gx, gy);
             }
         }
     }
@@ -551,16 +531,6 @@ mod tests {
                     let pose = Pose2::new(x, y, heading);
                     let cloud = cast(&[barrier], pose);
                     l.update(&mut g, &scan_of(&cloud, pose, &[])).unwrap();
-                    for &i in &face {
-                        if g.cells[i] != OCCUPIED_DETECTED {
-                            eprintln!(
-                                "lost {} {} at {pose:?} seen {:?}",
-                                i % g.width,
-                                i / g.width,
-                                l.seen[i]
-                            );
-                        }
-                    }
                 }
             }
         }

@@ -37,7 +37,7 @@ process group on shared memory, watch and replay them, profile, render and check
 group (simulator, lidar, mapper, global planner, TEB controller, nodes of your own) on \
 iceoryx2 shared memory and drives the mission; `check` validates a config, `init` writes \
 the built-in one out to edit, `map export` writes its static map, `scenario` varies it, \
-`sweep` runs many generated scenarios; `record`, `replay`, `profile`, `render` and \
+`scene generate` writes a larger warehouse, `sweep` runs many generated scenarios; `record`, `replay`, `profile`, `render` and \
 `export` (a ROS 2 bag) work on MCAP records; `instance`, `topics`, `echo` and `hz` inspect a live group; `clean` \
 removes what killed runs left; `gen` writes the Python SDK's bindings, `completions` a \
 shell's completion script. Without --config-dir every command uses the config built \
