@@ -20,8 +20,14 @@ import struct
 import sys
 import time
 
+import os
+
 import websockets
 from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+
+# The record checker's JSON Schema test, shared rather than written twice.
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools", "tests"))
+from read_foxglove import undeclared  # noqa: E402
 
 WANTED = {
     "/viz/scene": ("foxglove.SceneUpdate", 1),
@@ -31,20 +37,6 @@ WANTED = {
     "/plot/odometry": ("aisle.plot.Odometry", 3),
 }
 JSON_TOPICS = {"/plot/odometry"}
-
-
-def undeclared(value, schema, path=""):
-    """The fields of `value` its JSON Schema does not declare (recursively)."""
-    if not isinstance(value, dict):
-        return []
-    props = schema.get("properties", {})
-    out = []
-    for k, v in value.items():
-        if k not in props:
-            out.append(f"{path}.{k}")
-        else:
-            out.extend(undeclared(v, props[k], f"{path}.{k}"))
-    return out
 
 
 class JsonChannel:

@@ -15,6 +15,7 @@
 use crate::SensorPose;
 use crate::grid::Near;
 use crate::pattern::ScanPattern;
+use crate::planar::slab;
 use crate::world::World;
 
 /// An oriented box in the sensor frame.
@@ -387,21 +388,6 @@ fn tan_bounds(s_in: f32, s_out: f32, z: [f32; 2]) -> (f32, f32) {
     let hi = if z[1] > 0.0 { over(z[1]) } else { z[1] / s_out };
     let lo = if z[0] < 0.0 { over(z[0]) } else { z[0] / s_out };
     (lo, hi)
-}
-
-/// Ray parameter interval inside the slab |o + t d| <= h, or `None` if it misses.
-#[inline]
-fn slab(o: f32, d: f32, h: f32) -> Option<(f32, f32)> {
-    if d != 0.0 {
-        let inv = 1.0 / d;
-        let ta = (-h - o) * inv;
-        let tb = (h - o) * inv;
-        Some((ta.min(tb), ta.max(tb)))
-    } else if o.abs() <= h {
-        Some((f32::NEG_INFINITY, f32::INFINITY))
-    } else {
-        None
-    }
 }
 
 /// Entry distance of the ray into the box, if it enters at t >= 0.

@@ -414,9 +414,10 @@ impl Frame {
     }
 }
 
-/// Ray parameter interval inside the slab |o + t d| <= h, or `None` if it misses.
+/// Ray parameter interval inside the slab |o + t d| <= h, or `None` if it misses
+/// (the general path's column test uses it too).
 #[inline]
-fn slab(o: f32, d: f32, h: f32) -> Option<(f32, f32)> {
+pub(crate) fn slab(o: f32, d: f32, h: f32) -> Option<(f32, f32)> {
     if d != 0.0 {
         let inv = 1.0 / d;
         let ta = (-h - o) * inv;
