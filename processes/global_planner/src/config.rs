@@ -71,6 +71,10 @@ pub struct PlannerConfig {
     /// Docking: clearance (m) the straight move keeps from the rack's legs and from
     /// occupied cells (the legs leave 0.135 m beside the Jackal in the narrower opening).
     pub dock_clearance: f64,
+    /// A start inside the margin (the controller keeps the margin as a soft cost):
+    /// motions leaving from within this distance (m) of it keep at least the clearance
+    /// the start has, every other motion the full margin (`relief.rs`). 0: none.
+    pub start_relief_radius: f64,
 }
 
 impl Default for PlannerConfig {
@@ -101,6 +105,7 @@ impl Default for PlannerConfig {
             expansions_per_reachable_cell: 4.0,
             dock_run_in: 0.5,
             dock_clearance: 0.03,
+            start_relief_radius: 0.5,
         }
     }
 }
@@ -168,6 +173,7 @@ impl Validate for PlannerConfig {
         )?;
         positive("dock_run_in", self.dock_run_in)?;
         at_least("dock_clearance", self.dock_clearance, 0.0)?;
+        at_least("start_relief_radius", self.start_relief_radius, 0.0)?;
         Ok(())
     }
 }

@@ -21,6 +21,9 @@ pub struct PlanStats {
     pub path_cost: f64,
     /// Whether smoothing changed the path.
     pub smoothed: bool,
+    /// The margin (m) kept near a start that stands inside the full one (`relief.rs`);
+    /// `None` when the start keeps the full margin.
+    pub start_relief: Option<f64>,
 }
 
 /// What was wrong with a request.

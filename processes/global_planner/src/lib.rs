@@ -43,6 +43,7 @@ mod model;
 pub mod motion;
 pub mod node;
 pub mod reeds_shepp;
+mod relief;
 mod sampling;
 mod search;
 mod search_core;

@@ -228,12 +228,16 @@ impl Stage for PlannerStage {
         })?;
         match &result {
             Ok(plan) => tracing::info!(
-                "global_planner: request {}: {:.2} m in {} poses, {} expansions, {:.1} ms",
+                "global_planner: request {}: {:.2} m in {} poses, {} expansions, {:.1} ms{}",
                 req.request_id,
                 plan.stats.path_length,
                 plan.path.len(),
                 plan.stats.expansions,
-                solve_ns as f64 / 1e6
+                solve_ns as f64 / 1e6,
+                match plan.stats.start_relief {
+                    Some(m) => format!("; the start is inside the margin: {m:.3} m kept near it"),
+                    None => String::new(),
+                }
             ),
             Err(e) => tracing::warn!("global_planner: request {}: {e}", req.request_id),
         }

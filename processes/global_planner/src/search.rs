@@ -19,13 +19,13 @@
 //! Reads no clock: the request carries an expansion budget, and the caller may pass a
 //! stop callback (for a wall deadline) that is asked every few hundred expansions.
 
-use crate::collision::FootprintChecker;
 use crate::config::PlannerConfig;
 use crate::distance_map::DistanceMap;
 use crate::error::{InvalidInput, PlanError, PlanErrorKind, PlanStats};
 use crate::heuristic::GridHeuristic;
 use crate::model::Model;
 use crate::motion::Motion;
+use crate::relief::{self, Clearance};
 use crate::search_core::{Buffers, Search, SearchGrid};
 use crate::smooth::{SmoothParams, smooth_path};
 use aisle_config::{InvalidKey, Validate};
@@ -130,8 +130,6 @@ impl Planner {
         // The search keeps a little more clearance than the output needs: output poses are
         // joined by straight interpolation, which leaves the arcs by at most the sagitta.
         let sagitta = cfg.validation_distance.powi(2) / (8.0 * model.radius) + 1e-3;
-        let checker = FootprintChecker::new(&self.dm, body.inflated(sagitta), cfg.sweep_cover);
-        let output = FootprintChecker::new(&self.dm, body, cfg.sweep_cover);
         let (x0, y0, x1, y1) = map.bounds();
         let on_map = |p: &Pose2| p.x >= x0 && p.x <= x1 && p.y >= y0 && p.y <= y1;
         if !on_map(&start) {
@@ -140,18 +138,34 @@ impl Planner {
         if !on_map(&goal) {
             return Err(PlanErrorKind::GoalOutsideMap);
         }
-        if !output.pose_free(&start) {
+        let sizes = relief::Sizes {
+            footprint: req.footprint,
+            margin: req.margin,
+            sagitta,
+            cover: cfg.sweep_cover,
+            radius: cfg.start_relief_radius,
+        };
+        let Some(relief::Checks {
+            search: checker,
+            output,
+            kept,
+        }) = relief::checks(&self.dm, &sizes, &start)
+        else {
             return Err(PlanErrorKind::StartOccupied);
-        }
-        if !output.pose_free(&goal) {
+        };
+        stats.start_relief = kept;
+        if !output.full_checker().pose_free(&goal) {
             return Err(PlanErrorKind::GoalOccupied);
         }
-        let reached = self.heur.compute(
-            &self.dm,
-            body.inscribed_radius(),
-            cfg.heuristic_resolution,
-            (goal.x, goal.y),
-        );
+        // A relieved start may lie where the full margin's inscribed circle does not fit:
+        // the heuristic then uses the start's (a lower bound still).
+        let radius = match stats.start_relief {
+            Some(m) => req.footprint.inflated(m).inscribed_radius(),
+            None => body.inscribed_radius(),
+        };
+        let reached =
+            self.heur
+                .compute(&self.dm, radius, cfg.heuristic_resolution, (goal.x, goal.y));
         stats.heuristic_cells = self.heur.settled;
         let h_start = self
             .heur
@@ -180,7 +194,8 @@ impl Planner {
 
         let buf = &mut self.buf;
         stats.path_cost = buf.nodes[last].g + shot.cost;
-        let rotate_step = (cfg.validation_distance / output.circumscribed_radius()).min(0.2);
+        let rotate_step =
+            (cfg.validation_distance / output.full_checker().circumscribed_radius()).min(0.2);
         buf.trace(last, model, &shot, cfg.validation_distance, rotate_step);
         // Land exactly on the goal (the integrated end is within round-off of it).
         let end = buf.raw.len() - 1;
@@ -195,7 +210,7 @@ impl Planner {
 fn output_path(
     cfg: &PlannerConfig,
     radius: f64,
-    output: &FootprintChecker,
+    output: &Clearance,
     buf: &mut Buffers,
     stats: &mut PlanStats,
 ) -> Result<Vec<PathPose>, PlanErrorKind> {

@@ -3,15 +3,15 @@
 //! kept between requests, the dense closed-set grid, and one request's [`Search`]
 //! (`next_node`, `close`, `shot_due`, `analytic_expansion`, `expand`) with its goal test.
 //!
-//! Knows the motion model, the collision checker and the heuristic it is handed; knows
+//! Knows the motion model, the collision checks (`Clearance`) and the heuristic it is handed; knows
 //! nothing of requests, configuration files or the bus.
 
-use crate::collision::FootprintChecker;
 use crate::config::PlannerConfig;
 use crate::error::{PlanErrorKind, PlanStats};
 use crate::heuristic::GridHeuristic;
 use crate::model::{DIR_NONE, Model, Shot};
 use crate::reeds_shepp::Candidates;
+use crate::relief::Clearance;
 use crate::sampling::{append_motion, finish};
 use aisle_geometry::{GridView, PathPose, Pose2};
 use std::cmp::Ordering;
@@ -82,7 +82,7 @@ pub(crate) struct Search<'a> {
     pub(crate) model: &'a Model,
     pub(crate) grid: SearchGrid,
     pub(crate) heur: &'a GridHeuristic,
-    pub(crate) checker: FootprintChecker<'a>,
+    pub(crate) checker: Clearance<'a>,
     pub(crate) goal: Pose2,
     pub(crate) buf: &'a mut Buffers,
     pub(crate) stats: &'a mut PlanStats,
@@ -278,7 +278,7 @@ impl Search<'_> {
 /// collision free and the chain ends on the goal.
 #[inline]
 pub(crate) fn shot_reaches_goal(
-    checker: &FootprintChecker,
+    checker: &Clearance,
     from: &Pose2,
     shot: &Shot,
     goal: &Pose2,
