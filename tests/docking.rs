@@ -1,6 +1,6 @@
 //! System tests of docking as a capability (issue 15): every movable rack picked from
 //! each of its sides, a rack set down at four headings and left again, and a start
-//! inside the storage area; no mission here says `depart`. Each run is the real group in
+//! inside the storage area, two racks in one mission; no mission here says `depart`. Each run is the real group in
 //! lockstep; a collision would fail the run (exit 1).
 
 mod support;
@@ -90,6 +90,21 @@ fn a_rack_is_set_down_at_four_headings_and_left_again() {
         );
         succeeds(&format!("drop-{k}"), [0.0, 0.0, 0.0], &legs);
     }
+}
+
+/// Two racks in one mission: the leg to the second starts under the first, just set
+/// down, and ends under the second, whose legs the lidar has seen (so its centre is
+/// occupied on the map): the move out of the first, then the way in to the second.
+#[test]
+fn two_racks_are_carried_in_one_mission() {
+    let legs = format!(
+        "[[leg]]\nname = \"to pick 2b\"\napproach = \"rack2b\"\n\
+         [[leg]]\nname = \"carry 2b\"\ngoal = [6.0, -7.0, 0.0]\ncarry = \"rack2b\"\n\
+         [[leg]]\nname = \"to pick 1b\"\napproach = \"rack1b\"\n\
+         [[leg]]\nname = \"carry 1b\"\ngoal = [4.0, -7.0, {PI}]\ncarry = \"rack1b\"\n\
+         [[leg]]\nname = \"park\"\ngoal = [6.0, 8.0, {FRAC_PI_2}]\n"
+    );
+    succeeds("two-racks", [0.0, 0.0, 0.0], &legs);
 }
 
 /// The robot starts between the rack rows and picks the rack in front of it.

@@ -101,6 +101,13 @@ impl Planner {
                 break;
             }
         }
+        // The goal is under something (the next body the leg approaches, whose legs the
+        // lidar has seen): no search reaches it from outside this body, so the plan is
+        // the move out alone, and the caller plans on from where it ends.
+        let goal_occupied = failure.is_some_and(|e| e.kind == PlanErrorKind::GoalOccupied);
+        if result.is_none() && site.kind == DockKind::Undock && goal_occupied {
+            result = self.move_out_only(req, site, &blocked, map, should_stop);
+        }
         self.dock_scratch = scratch;
         match (result, failure) {
             (Some(mut plan), _) => {
@@ -122,6 +129,46 @@ impl Planner {
                 },
             }),
         }
+    }
+
+    /// The straight move out of `site` alone, through the open side whose end is free
+    /// (on `blocked`) and nearest to the goal; `None` when no side qualifies.
+    fn move_out_only(
+        &mut self,
+        req: &PlanRequest,
+        site: &DockSite,
+        blocked: &GridView,
+        map: &GridView,
+        should_stop: &mut dyn FnMut() -> bool,
+    ) -> Option<DockedPlan> {
+        let params = DockParams {
+            run_in: self.config().dock_run_in,
+            clearance: self.config().dock_clearance,
+            step: self.config().validation_distance,
+        };
+        let mut best: Option<(f64, Straight, PlanStats)> = None;
+        for mv in dock::exits(site, &req.start, req.footprint, &params) {
+            if !dock::corridor_clear(site, &mv, req.footprint, &params, map) {
+                continue;
+            }
+            // Planning from the end to itself checks that the end is free.
+            let here = PlanRequest {
+                start: mv.to,
+                goal: mv.to,
+                ..*req
+            };
+            let Ok(plan) = self.plan_with_stop(&here, blocked, should_stop) else {
+                continue;
+            };
+            let cost = self.straight_cost(&mv) + mv.to.distance(&req.goal);
+            if best.as_ref().is_none_or(|(c, _, _)| cost < *c) {
+                best = Some((cost, mv, plan.stats));
+            }
+        }
+        let (_, mv, stats) = best?;
+        let path: Vec<PathPose> = mv.poses(params.step).collect();
+        let split = path.len() - 1;
+        Some(joined_plan((path, split), DockKind::Undock, stats))
     }
 
     fn straight_cost(&self, mv: &Straight) -> f64 {
@@ -265,5 +312,53 @@ mod tests {
             .plan_docked(&req, &site, &walled.view(), &mut || false)
             .unwrap_err();
         assert_eq!(e.kind, PlanErrorKind::NoOpenSide);
+    }
+
+    /// The next rack of the leg stands 3 m east; its legs are on the map, so its centre
+    /// (the leg's goal) is occupied: the plan is the move out alone, east, towards it.
+    #[test]
+    fn an_undock_towards_a_goal_under_another_body_is_the_move_out_alone() {
+        let mut map = GridMap::new_free(-5.0, -5.0, 0.05, 10.0, 10.0).unwrap();
+        let (body, legs) = rack(Pose2::new(0.0, 0.0, 0.0));
+        let (next, next_legs) = rack(Pose2::new(3.0, 0.0, 0.0));
+        // Each leg seen as a 3 x 3 block of cells, as noisy returns spread it.
+        for leg in &next_legs {
+            for (dx, dy) in (-1..=1).flat_map(|i| (-1..=1).map(move |j| (i, j))) {
+                let (x, y) = (
+                    leg.pose.x + 0.05 * f64::from(dx),
+                    leg.pose.y + 0.05 * f64::from(dy),
+                );
+                let c = map.view().cell_of(x, y);
+                map.set(c, aisle_geometry::OCCUPIED_STATIC);
+            }
+        }
+        let site = DockSite {
+            kind: DockKind::Undock,
+            body,
+            parts: &legs,
+            free_heading: false,
+        };
+        let mut planner = Planner::new(PlannerConfig::default()).unwrap();
+        let req = request(body.pose, next.pose);
+        let plan = planner
+            .plan_docked(&req, &site, &map.view(), &mut || false)
+            .unwrap();
+        assert_eq!(plan.split, plan.path.len() - 1, "only the straight move");
+        let end = plan.path[plan.split].pose;
+        assert!(end.x > 0.8 && end.y.abs() < 1e-9, "{end:?}");
+        assert!(plan.path.iter().all(|p| p.direction == Direction::Forward));
+        // A goal occupied by anything gets the same answer: the robot leaves the body
+        // first, and the plan from outside says why it cannot go on.
+        let walled_goal = request(body.pose, Pose2::new(3.0, 4.0, 0.0));
+        let mut boxed = map.clone();
+        for k in -10..=10 {
+            let c = boxed.view().cell_of(3.0 + 0.05 * f64::from(k), 4.0);
+            boxed.set(c, aisle_geometry::OCCUPIED_STATIC);
+        }
+        let e = planner.plan_docked(&walled_goal, &site, &boxed.view(), &mut || false);
+        assert!(
+            e.is_ok_and(|p| p.split == p.path.len() - 1),
+            "occupied goal: out first"
+        );
     }
 }
