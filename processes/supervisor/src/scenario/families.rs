@@ -168,14 +168,61 @@ pub fn start(g: &Ground, rng: &mut ChaCha8Rng, d: &mut Draft) -> bool {
 
 /// Another mission: pick one of the movable racks from its front or back end, or with
 /// the heading left to the planner; sometimes turn in place under it; carry it to a
-/// free drop pose and heading at least 3 m away; park at a free pose at least 2.5 m
-/// from the drop. No `depart`.
+/// free drop pose and heading at least 3 m away; in a third of the draws, pick a second
+/// rack the same way straight after (the leg to it starts under the first, just set
+/// down) and carry it away too; park at a free pose at least 2.5 m from the drops. No
+/// `depart`.
 pub fn mission(g: &Ground, rng: &mut ChaCha8Rng, d: &mut Draft) -> bool {
     let racks = g.racks();
     if racks.is_empty() {
         return false;
     }
-    let rack = racks[rng.random_range(0..racks.len())];
+    let first = racks[rng.random_range(0..racks.len())];
+    let (mut legs, mut said) = pick_legs(rng, first);
+    let away = |p: Pose2| p.distance(&first.pose) >= 3.0;
+    let Some(drop) = drop_pose(g, rng, d, first, away) else {
+        return false;
+    };
+    let need = |p: Pose2| vec![g.robot_rect(p, ALONE_CLEARANCE)];
+    let apart = |p: Pose2| p.distance(&drop) >= 2.5;
+    let Some(park) = free_pose(rng, g, &d.layout, &[], need, apart) else {
+        return false;
+    };
+    legs.push(carry_leg("carry to drop", &first.name, drop));
+    said.push_str(&format!(", drop at {}", xy(&drop)));
+    // Drawn after everything else, so the one-rack missions stay what they were.
+    if racks.len() > 1 && rng.random_bool(1.0 / 3.0) {
+        let others: Vec<_> = racks.iter().filter(|r| r.name != first.name).collect();
+        let second = others[rng.random_range(0..others.len())];
+        let (more, said_more) = pick_legs(rng, second);
+        let clear = |p: Pose2| p.distance(&second.pose) >= 3.0 && p.distance(&park) >= 2.5;
+        let Some(drop2) = drop_pose(g, rng, d, second, clear) else {
+            return false;
+        };
+        legs.extend(more.into_iter().map(|l| Leg {
+            name: format!("{} 2", l.name),
+            ..l
+        }));
+        legs.push(carry_leg("carry to drop 2", &second.name, drop2));
+        said.push_str(&format!(", then {said_more}, drop at {}", xy(&drop2)));
+    }
+    legs.push(Leg {
+        name: "park".into(),
+        goal: Some([park.x, park.y, park.theta]),
+        rotate: false,
+        carry: None,
+        approach: None,
+        depart: None,
+    });
+    d.varied
+        .push(format!("mission: {said}, park at {}", xy(&park)));
+    d.legs = legs;
+    true
+}
+
+/// The legs that pick `rack`: from its front or back end, or with the heading free;
+/// half of the time a turn in place under it follows. With what they do, in words.
+fn pick_legs(rng: &mut ChaCha8Rng, rack: &aisle_config::scene::Body) -> (Vec<Leg>, String) {
     let (name, at) = (rack.name.clone(), rack.pose);
     let side = rng.random_range(0..3_u32);
     let entry = match side {
@@ -208,47 +255,39 @@ pub fn mission(g: &Ground, rng: &mut ChaCha8Rng, d: &mut Draft) -> bool {
         });
         said.push_str(&format!(", turn to {h:.4}"));
     }
-    // The rack keeps its yaw relative to the robot, which depends on the side: keep
-    // room for both orientations.
+    (legs, said)
+}
+
+/// A free pose for `rack` set down (with room for both of its orientations on the
+/// robot: its yaw relative to the robot depends on the side it was entered from) that
+/// `accept`s; the layout has the rack there from then on.
+fn drop_pose(
+    g: &Ground,
+    rng: &mut ChaCha8Rng,
+    d: &mut Draft,
+    rack: &aisle_config::scene::Body,
+    accept: impl Fn(Pose2) -> bool,
+) -> Option<Pose2> {
     let fp = rack.footprint();
     let need = |p: Pose2| {
         let turned = Pose2::new(p.x, p.y, p.theta + FRAC_PI_2);
         let m = g.carrying_margin + CARRY_CLEARANCE;
         vec![Rect::new(p, fp).grown(m), Rect::new(turned, fp).grown(m)]
     };
-    let away = |p: Pose2| p.distance(&at) >= 3.0;
-    let Some(drop) = free_pose(rng, g, &d.layout, &[&name], need, away) else {
-        return false;
-    };
-    if let Some(b) = d.layout.get_mut(&name) {
+    let drop = free_pose(rng, g, &d.layout, &[&rack.name], need, accept)?;
+    if let Some(b) = d.layout.get_mut(&rack.name) {
         b.rect = Rect::new(Pose2::new(drop.x, drop.y, drop.theta), fp);
     }
-    let need = |p: Pose2| vec![g.robot_rect(p, ALONE_CLEARANCE)];
-    let apart = |p: Pose2| p.distance(&drop) >= 2.5;
-    let Some(park) = free_pose(rng, g, &d.layout, &[], need, apart) else {
-        return false;
-    };
-    legs.push(Leg {
-        name: "carry to drop".into(),
-        goal: Some([drop.x, drop.y, drop.theta]),
+    Some(drop)
+}
+
+fn carry_leg(name: &str, rack: &str, to: Pose2) -> Leg {
+    Leg {
+        name: name.into(),
+        goal: Some([to.x, to.y, to.theta]),
         rotate: false,
-        carry: Some(name.clone()),
+        carry: Some(rack.into()),
         approach: None,
         depart: None,
-    });
-    legs.push(Leg {
-        name: "park".into(),
-        goal: Some([park.x, park.y, park.theta]),
-        rotate: false,
-        carry: None,
-        approach: None,
-        depart: None,
-    });
-    d.varied.push(format!(
-        "mission: {said}, drop at {}, park at {}",
-        xy(&drop),
-        xy(&park)
-    ));
-    d.legs = legs;
-    true
+    }
 }
