@@ -142,11 +142,11 @@ fn every_node_type_hung_in_realtime_stops_the_robot_and_is_replaced() {
             // loaded machine can make a first start miss its deadline): give it a moment.
             let give_up = Instant::now() + Duration::from_secs(5);
             let mut now = node_pid(sup, node);
-            while !now.is_some_and(|p| p != pid) && Instant::now() < give_up {
+            while now.is_none_or(|p| p == pid) && Instant::now() < give_up {
                 std::thread::sleep(Duration::from_millis(50));
                 now = node_pid(sup, node);
             }
-            if !now.is_some_and(|p| p != pid) {
+            if now.is_none_or(|p| p == pid) {
                 log.extend(lines.try_iter());
                 panic!("{node} was not replaced: {now:?}; log: {log:#?}");
             }

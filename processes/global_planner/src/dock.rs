@@ -9,8 +9,9 @@
 //! cuts back under the body on the way out: it ends at the pose outside from which the
 //! straight move starts, or starts at the pose outside where the move out ends.
 //! Candidates are the four sides (or the one the mission's heading enters driving
-//! forwards), and forwards or backwards out along the robot's heading; the cheapest
-//! total cost wins.
+//! forwards), and forwards or backwards out along the robot's heading or, after a
+//! quarter turn in place under the body (checked swept like the move), forwards through
+//! either side; the cheapest total cost wins.
 //!
 //! Knows nothing of the bus, of missions or of the controller that drives the moves.
 
@@ -55,12 +56,16 @@ pub struct DockParams {
     pub step: f64,
 }
 
-/// One straight move: from `from` to `to` with a fixed heading, forwards or backwards.
+/// One straight move: from `from` to `to` with a fixed heading, forwards or backwards;
+/// an undocking move through a side of the body may first turn in place under it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Straight {
     pub from: Pose2,
     pub to: Pose2,
     pub direction: Direction,
+    /// The heading the robot turns from, in place at `from`, before the move (a side
+    /// exit); `None`: no turn.
+    pub turn_from: Option<f64>,
 }
 
 impl Straight {
@@ -116,23 +121,34 @@ pub fn entries(site: &DockSite, goal: &Pose2, robot: Footprint, p: &DockParams) 
                 from,
                 to,
                 direction: Direction::Forward,
+                turn_from: None,
             }
         })
         .collect()
 }
 
 /// The undocking moves to consider from `start` under the body: forwards and backwards
-/// along the robot's heading until the robot is `run_in` clear of the body.
+/// along the robot's heading, and forwards through either side after a quarter turn in
+/// place, each until the robot is `run_in` clear of the body.
 pub fn exits(site: &DockSite, start: &Pose2, robot: Footprint, p: &DockParams) -> Vec<Straight> {
-    [(1.0, Direction::Forward), (-1.0, Direction::Reverse)]
+    // (turn in place first, sign along the heading then, direction)
+    let candidates = [
+        (0.0, 1.0, Direction::Forward),
+        (0.0, -1.0, Direction::Reverse),
+        (FRAC_PI_2, 1.0, Direction::Forward),
+        (-FRAC_PI_2, 1.0, Direction::Forward),
+    ];
+    candidates
         .into_iter()
-        .map(|(sign, direction)| {
-            let (ux, uy) = (sign * start.theta.cos(), sign * start.theta.sin());
+        .map(|(turn, sign, direction)| {
+            let h = aisle_geometry::wrap_angle(start.theta + turn);
+            let (ux, uy) = (sign * h.cos(), sign * h.sin());
             let out = reach(&site.body, start, ux, uy) + 0.5 * robot.length + p.run_in;
             Straight {
-                from: *start,
-                to: Pose2::new(start.x + out * ux, start.y + out * uy, start.theta),
+                from: Pose2::new(start.x, start.y, h),
+                to: Pose2::new(start.x + out * ux, start.y + out * uy, h),
                 direction,
+                turn_from: (turn != 0.0).then_some(start.theta),
             }
         })
         .collect()
@@ -150,18 +166,33 @@ pub fn corridor_clear(
     let swept = robot.inflated(p.clearance);
     // Cells under the body are the body's own (deck, load): only its parts count there.
     let body_zone = site.body.footprint.inflated(map.resolution);
-    mv.poses(p.step).all(|pp| {
-        let at = pp.pose;
+    let clear = |at: &Pose2| {
         if site
             .parts
             .iter()
-            .any(|part| swept.overlaps(&at, &part.footprint, &part.pose))
+            .any(|part| swept.overlaps(at, &part.footprint, &part.pose))
         {
             return false;
         }
-        !cells_under(map, &swept, &at).any(|(c, cx, cy)| {
+        !cells_under(map, &swept, at).any(|(c, cx, cy)| {
             !body_zone.contains(&site.body.pose, cx, cy) && map.occupied_or_outside(c)
         })
+    };
+    turn_poses(mv).all(|at| clear(&at)) && mv.poses(p.step).all(|pp| clear(&pp.pose))
+}
+
+/// Headings no more than 3 degrees apart through the turn in place before `mv` (none
+/// without one): the swept check of the turn.
+fn turn_poses(mv: &Straight) -> impl Iterator<Item = Pose2> + '_ {
+    const STEP_RAD: f64 = 3.0 * std::f64::consts::PI / 180.0;
+    let turn = mv
+        .turn_from
+        .map_or(0.0, |h| aisle_geometry::wrap_angle(mv.from.theta - h));
+    let n = (turn.abs() / STEP_RAD).ceil() as usize;
+    let from = mv.turn_from.unwrap_or(mv.from.theta);
+    (0..n).map(move |i| {
+        let h = from + turn * i as f64 / n as f64;
+        Pose2::new(mv.from.x, mv.from.y, h)
     })
 }
 

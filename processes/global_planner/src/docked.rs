@@ -15,6 +15,14 @@ use aisle_geometry::{Direction, GridView, PathPose, Pose2, wrap_angle};
 /// blocked.
 const RUN_IN_FRACTIONS: [f64; 3] = [1.0, 0.6, 0.3];
 
+/// What the searches of one request did so far: their expansions, and the failure of
+/// the one that went farthest.
+#[derive(Default)]
+struct Tally {
+    expansions: u32,
+    failure: Option<PlanError>,
+}
+
 /// A plan with its straight move: `path[split..]` is the docking move, or
 /// `path[..=split]` the undocking move.
 #[derive(Debug, Clone, PartialEq)]
@@ -38,69 +46,48 @@ impl Planner {
     ) -> Result<DockedPlan, PlanError> {
         let mut scratch = std::mem::take(&mut self.dock_scratch);
         let blocked = dock::with_body_blocked(map, &site.body, &mut scratch);
-        let mut expansions = 0;
-        let mut failure: Option<PlanError> = None;
+        let mut tally = Tally::default();
         let mut result = None;
-        // A shorter run-in when the pose outside is blocked (a neighbouring rack): less
-        // room to line up, but the straight move still corrects what the path leaves.
-        for fraction in RUN_IN_FRACTIONS {
-            let params = DockParams {
-                run_in: self.config().dock_run_in * fraction,
-                clearance: self.config().dock_clearance,
-                step: self.config().validation_distance,
-            };
-            let moves = match site.kind {
-                DockKind::Dock => dock::entries(site, &req.goal, req.footprint, &params),
-                DockKind::Undock => dock::exits(site, &req.start, req.footprint, &params),
-            };
-            let open = moves
-                .into_iter()
-                .filter(|mv| dock::corridor_clear(site, mv, req.footprint, &params, map));
-            let mut best: Option<(f64, DockedPlan)> = None;
-            let mut ends_blocked = true;
-            for mv in open {
-                let leg = match site.kind {
-                    DockKind::Dock => PlanRequest {
-                        goal: mv.from,
-                        ..*req
-                    },
-                    DockKind::Undock => PlanRequest {
-                        start: mv.to,
-                        ..*req
-                    },
+        // Moves out through a side, which turn in place under the body first, only when
+        // neither end along the robot's heading leads anywhere.
+        let tiers: &[bool] = match site.kind {
+            DockKind::Dock => &[false],
+            DockKind::Undock => &[false, true],
+        };
+        'tiers: for &turning in tiers {
+            // A shorter run-in when the pose outside is blocked (a neighbouring rack):
+            // less room to line up, but the straight move still corrects what the path
+            // leaves.
+            for fraction in RUN_IN_FRACTIONS {
+                let params = DockParams {
+                    run_in: self.config().dock_run_in * fraction,
+                    clearance: self.config().dock_clearance,
+                    step: self.config().validation_distance,
                 };
-                match self.plan_with_stop(&leg, &blocked, should_stop) {
-                    Ok(plan) => {
-                        expansions += plan.stats.expansions;
-                        let cost = plan.stats.path_cost + self.straight_cost(&mv);
-                        if best.as_ref().is_none_or(|(c, _)| cost < *c) {
-                            let joined = join(site.kind, &mv, plan.path, params.step);
-                            best = Some((cost, joined_plan(joined, site.kind, plan.stats)));
-                        }
-                    }
-                    Err(e) => {
-                        expansions += e.stats.expansions;
-                        ends_blocked &= matches!(
-                            e.kind,
-                            PlanErrorKind::GoalOccupied | PlanErrorKind::StartOccupied
-                        );
-                        if failure.is_none_or(|f| e.stats.expansions >= f.stats.expansions) {
-                            failure = Some(e);
-                        }
-                        if e.kind == PlanErrorKind::Stopped {
-                            break;
-                        }
-                    }
+                let moves = match site.kind {
+                    DockKind::Dock => dock::entries(site, &req.goal, req.footprint, &params),
+                    DockKind::Undock => dock::exits(site, &req.start, req.footprint, &params),
+                };
+                let open: Vec<Straight> = moves
+                    .into_iter()
+                    .filter(|mv| mv.turn_from.is_some() == turning)
+                    .filter(|mv| dock::corridor_clear(site, mv, req.footprint, &params, map))
+                    .collect();
+                let (best, ends_blocked) =
+                    self.cheapest(req, site, &open, &blocked, &params, should_stop, &mut tally);
+                let stopped = tally
+                    .failure
+                    .is_some_and(|f| f.kind == PlanErrorKind::Stopped);
+                if best.is_some() || stopped {
+                    result = best;
+                    break 'tiers;
+                }
+                if !ends_blocked {
+                    break;
                 }
             }
-            if let Some((_, plan)) = best {
-                result = Some(plan);
-                break;
-            }
-            if !ends_blocked {
-                break;
-            }
         }
+        let (expansions, failure) = (tally.expansions, tally.failure);
         // The goal is under something (the next body the leg approaches, whose legs the
         // lidar has seen): no search reaches it from outside this body, so the plan is
         // the move out alone, and the caller plans on from where it ends.
@@ -129,6 +116,63 @@ impl Planner {
                 },
             }),
         }
+    }
+
+    /// The cheapest of the searches to (or from) each of `open`'s moves, joined with
+    /// its move; and whether every search failed at its own end pose (so a shorter
+    /// run-in may help).
+    #[allow(clippy::too_many_arguments)]
+    fn cheapest(
+        &mut self,
+        req: &PlanRequest,
+        site: &DockSite,
+        open: &[Straight],
+        blocked: &GridView,
+        params: &DockParams,
+        should_stop: &mut dyn FnMut() -> bool,
+        tally: &mut Tally,
+    ) -> (Option<DockedPlan>, bool) {
+        let mut best: Option<(f64, DockedPlan)> = None;
+        let mut ends_blocked = true;
+        for mv in open {
+            let leg = match site.kind {
+                DockKind::Dock => PlanRequest {
+                    goal: mv.from,
+                    ..*req
+                },
+                DockKind::Undock => PlanRequest {
+                    start: mv.to,
+                    ..*req
+                },
+            };
+            match self.plan_with_stop(&leg, blocked, should_stop) {
+                Ok(plan) => {
+                    tally.expansions += plan.stats.expansions;
+                    let cost = plan.stats.path_cost + self.straight_cost(mv);
+                    if best.as_ref().is_none_or(|(c, _)| cost < *c) {
+                        let joined = join(site.kind, mv, plan.path, params.step);
+                        best = Some((cost, joined_plan(joined, site.kind, plan.stats)));
+                    }
+                }
+                Err(e) => {
+                    tally.expansions += e.stats.expansions;
+                    ends_blocked &= matches!(
+                        e.kind,
+                        PlanErrorKind::GoalOccupied | PlanErrorKind::StartOccupied
+                    );
+                    if tally
+                        .failure
+                        .is_none_or(|f| e.stats.expansions >= f.stats.expansions)
+                    {
+                        tally.failure = Some(e);
+                    }
+                    if e.kind == PlanErrorKind::Stopped {
+                        break;
+                    }
+                }
+            }
+        }
+        (best.map(|(_, plan)| plan), ends_blocked)
     }
 
     /// The straight move out of `site` alone, through the open side whose end is free
@@ -166,7 +210,9 @@ impl Planner {
             }
         }
         let (_, mv, stats) = best?;
-        let path: Vec<PathPose> = mv.poses(params.step).collect();
+        let (mut path, _) = join(DockKind::Undock, &mv, Vec::new(), params.step);
+        // `join` leaves the move's end to the search that would follow: put it back.
+        path.extend(mv.poses(params.step).last());
         let split = path.len() - 1;
         Some(joined_plan((path, split), DockKind::Undock, stats))
     }
@@ -176,7 +222,10 @@ impl Planner {
             Direction::Reverse => self.config().reverse_cost,
             _ => self.config().forward_cost,
         };
-        per_metre * mv.length()
+        let turn = mv
+            .turn_from
+            .map_or(0.0, |h| wrap_angle(mv.from.theta - h).abs());
+        per_metre * mv.length() + self.config().rotation_cost * turn
     }
 }
 
@@ -200,8 +249,12 @@ fn join(
             (path, split)
         }
         DockKind::Undock => {
-            let split = straight.len() - 1;
-            let mut path = straight;
+            // A side exit turns in place first: the pose it turns from leads.
+            let turn = mv
+                .turn_from
+                .map(|h| PathPose::new(Pose2::new(mv.from.x, mv.from.y, h), Direction::Rotate));
+            let mut path: Vec<PathPose> = turn.into_iter().chain(straight).collect();
+            let split = path.len() - 1;
             // The move's end is the search's start, which says how the path leaves it.
             path.pop();
             path.extend(searched);
@@ -241,6 +294,15 @@ mod tests {
     use std::f64::consts::FRAC_PI_2;
 
     use crate::dock::seed_rack as rack;
+
+    /// Twenty occupied cells from `at`, `step` apart in each direction.
+    fn wall(map: &mut GridMap, at: (f64, f64), step: (f64, f64)) {
+        for k in -10..10 {
+            let (x, y) = (at.0 + step.0 * f64::from(k), at.1 + step.1 * f64::from(k));
+            let c = map.view().cell_of(x, y);
+            map.set(c, aisle_geometry::OCCUPIED_STATIC);
+        }
+    }
 
     fn request(start: Pose2, goal: Pose2) -> PlanRequest {
         PlanRequest {
@@ -284,7 +346,8 @@ mod tests {
     }
 
     #[test]
-    fn an_undock_leaves_backwards_when_the_goal_is_behind_and_blocked_sides_are_refused() {
+    fn an_undock_leaves_backwards_when_the_goal_is_behind_else_through_a_side_and_blocked_sides_are_refused()
+     {
         let map = GridMap::new_free(-5.0, -5.0, 0.1, 10.0, 10.0).unwrap();
         let (body, legs) = rack(Pose2::new(0.0, 0.0, 0.0));
         let site = DockSite {
@@ -300,14 +363,19 @@ mod tests {
             .unwrap();
         assert_eq!(plan.path[0].direction, Direction::Reverse);
         assert!(plan.path[plan.split].pose.x < -1.0);
-        // Boxed in on both ends: no way out.
+        // Walled in at both ends: out through a side after a quarter turn in place.
         let mut walled = map.clone();
-        for y in -10..10 {
-            for x in [-1.0, 1.0] {
-                let c = walled.view().cell_of(x, 0.05 * y as f64);
-                walled.set(c, aisle_geometry::OCCUPIED_STATIC);
-            }
-        }
+        wall(&mut walled, (-1.0, 0.0), (0.0, 0.05));
+        wall(&mut walled, (1.0, 0.0), (0.0, 0.05));
+        let plan = planner
+            .plan_docked(&req, &site, &walled.view(), &mut || false)
+            .unwrap();
+        assert_eq!(plan.path[0].direction, Direction::Rotate);
+        let out = plan.path[plan.split].pose;
+        assert!(out.x.abs() < 1e-9 && out.y.abs() > 1.0, "{out:?}");
+        // Walled in on every side: no way out.
+        wall(&mut walled, (0.0, -1.0), (0.05, 0.0));
+        wall(&mut walled, (0.0, 1.0), (0.05, 0.0));
         let e = planner
             .plan_docked(&req, &site, &walled.view(), &mut || false)
             .unwrap_err();

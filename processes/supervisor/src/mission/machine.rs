@@ -62,6 +62,9 @@ enum Stage {
     ToDock { from: Pose2, under: Pose2 },
     /// Driving straight under the body.
     Docking,
+    /// Turning in place under the body to face the side it leaves through; then
+    /// straight out to `out`.
+    UndockTurn { out: Pose2, rest: Vec<PathPose> },
     /// Driving straight out of the body; then `rest` of the path.
     Undocking { rest: Vec<PathPose> },
 }

@@ -7,7 +7,7 @@
 
 use super::{Mission, Phase, Stage};
 use crate::mission::events::{Action, Dock, DockBody, Planned};
-use aisle_geometry::{Footprint, Pose2};
+use aisle_geometry::{Direction, Footprint, Pose2};
 
 /// Tolerances (along, across, heading) for the pose a docking move starts from: the
 /// straight move corrects what is left, but it has only the run-in to do so.
@@ -44,6 +44,19 @@ impl Mission {
         if let Some(k) = planned.undock_to.filter(|&k| k < path.len()) {
             let rest = path.split_off(k);
             let out = rest[0].pose;
+            // A side exit: the plan turns in place under the body before the move.
+            if path.len() > 1 && path[0].direction == Direction::Rotate {
+                let facing = Pose2::new(path[0].pose.x, path[0].pose.y, out.theta);
+                self.stage = Stage::UndockTurn { out, rest };
+                return vec![
+                    self.mapper_control(),
+                    Action::Rotate {
+                        goal: facing,
+                        footprint,
+                        margin,
+                    },
+                ];
+            }
             self.stage = Stage::Undocking { rest };
             return vec![self.mapper_control(), straight(out, footprint, margin)];
         }
@@ -88,6 +101,10 @@ impl Mission {
                     straight(under, footprint, margin),
                 ])
             }
+            Stage::UndockTurn { out, rest } => {
+                self.stage = Stage::Undocking { rest };
+                Some(vec![straight(out, footprint, margin)])
+            }
             Stage::Undocking { rest } => {
                 // Out: the body is an obstacle again.
                 self.under = None;
@@ -117,6 +134,7 @@ impl Mission {
             Stage::Path => self.goal(),
             Stage::ToDock { from, .. } => *from,
             Stage::Docking => self.redo_target(pose),
+            Stage::UndockTurn { out, .. } => *out,
             Stage::Undocking { rest } => rest.first().map_or(pose, |p| p.pose),
         }
     }
@@ -131,7 +149,7 @@ impl Mission {
                 Some(_) => vec![self.redo_docking(pose, footprint, margin)],
                 None => Vec::new(),
             },
-            Stage::Undocking { .. } => {
+            Stage::UndockTurn { .. } | Stage::Undocking { .. } => {
                 // The way out is blocked (often by what the lidar could not see from
                 // under the body when the first plan, on the static map, chose it):
                 // plan the move out again from here, with the detections; the planner

@@ -445,3 +445,60 @@ fn a_reduced_margin_lasts_until_the_robot_is_clear_of_the_spot() {
     m.on_plan(1.2, Pose2::new(1.0, 0.0, 0.0), Ok(Planned::plain(path())));
     assert!(m.on_tick(3.0, Pose2::new(2.5, 0.0, 0.0)).is_empty());
 }
+
+/// The planner's way out of a rack set down is through a side: the robot turns in place
+/// under it first, then drives straight out, then follows the rest.
+#[test]
+fn a_way_out_through_a_side_turns_in_place_first() {
+    let mut m = mission();
+    m.cfg.leg.push(LegSpec {
+        name: "d".into(),
+        goal_given: Some([5.0, 0.0, 0.0]),
+        goal: [5.0, 0.0, 0.0],
+        free_heading: false,
+        rotate: false,
+        carry: None,
+        approach: None,
+        depart: None,
+    });
+    let p = Pose2::default();
+    m.start_leg(0.0, p);
+    let docking = Planned {
+        path: poses(3),
+        dock_from: Some(1),
+        undock_to: None,
+    };
+    m.on_plan(0.0, p, Ok(docking));
+    for t in [1.0, 2.0, 3.0] {
+        m.on_controller(t, p, REACHED);
+    }
+    m.on_plan(3.0, p, Ok(Planned::plain(poses(2))));
+    let drop = Pose2::new(3.0, 0.0, 0.0);
+    m.on_controller(4.0, drop, REACHED);
+    let up = std::f64::consts::FRAC_PI_2;
+    let mut path = vec![PathPose::new(drop, Direction::Rotate)];
+    path.extend(
+        (0..3).map(|i| PathPose::new(Pose2::new(3.0, 0.5 * i as f64, up), Direction::Forward)),
+    );
+    path.push(PathPose::new(Pose2::new(3.5, 1.5, 0.0), Direction::Forward));
+    let planned = Planned {
+        path,
+        dock_from: None,
+        undock_to: Some(3),
+    };
+    let a = m.on_plan(4.0, drop, Ok(planned));
+    assert!(
+        matches!(a[1], Action::Rotate { goal, .. } if goal == Pose2::new(3.0, 0.0, up)),
+        "{a:?}"
+    );
+    let a = m.on_controller(4.5, drop, REACHED);
+    assert!(
+        matches!(a[..], [Action::Straight { goal, .. }] if goal == Pose2::new(3.0, 1.0, up)),
+        "{a:?}"
+    );
+    let a = m.on_controller(5.0, Pose2::new(3.0, 1.0, up), REACHED);
+    assert!(
+        matches!(&a[1], Action::Follow { reference, .. } if reference.len() == 2),
+        "{a:?}"
+    );
+}
