@@ -4,10 +4,10 @@
 //! that may have it.
 //!
 //! A column visits its boxes nearest first and stops at the first one whose lower bound
-//! lies beyond every row's best hit: the boxes hidden behind nearer ones then cost
-//! nothing, so a scan's cost follows what it sees, not what lies within range. Each box
-//! tests only the rows its tangents allow, and a row whose best hit is nearer than the
-//! box's entry skips it. The result of each ray is the minimum over the boxes that can
+//! lies beyond every row's best hit: the boxes behind those hits cost nothing, so a
+//! scan's cost follows what it sees more than what lies within range (a box hidden in
+//! some rows only still costs its column test). Each box tests only the rows its
+//! tangents allow, and a row whose best hit is nearer than the box's entry skips it. The result of each ray is the minimum over the boxes that can
 //! be hit, so the visiting order changes no point. Knows nothing of boxes' shapes, of
 //! poses or of the world: callers pass distances and tangents.
 

@@ -9,7 +9,7 @@
 //! sensor frame once, culled by range, and given the column and row span it can occupy;
 //! a sweep over columns (`column.rs`) visits the boxes whose span covers the column
 //! nearest first, each box lowering the best hit of the rows that can see it, and
-//! stops at the first box beyond every row's best hit: boxes hidden behind nearer ones
+//! stops at the first box beyond every row's best hit: the boxes behind those hits
 //! cost nothing.
 //!
 //! Knows nothing of noise or of the general (tilted) case.
