@@ -4,15 +4,16 @@
 //! Per scan the boxes near the sensor (the grid's superset of those within range) are
 //! moved to the sensor frame once, culled by range and by the elevations they span,
 //! and given the columns (their azimuths about the sensor z axis) they can occupy, from
-//! the box's sensor-frame bounding box. A sweep over columns keeps the boxes whose span
-//! covers the column; per column, where the column's vertical half-plane crosses a
+//! the box's sensor-frame bounding box. A sweep over columns (`column.rs`) visits the
+//! boxes whose span covers the column nearest first and stops at the first one beyond
+//! every row's best hit; per column, where the column's vertical half-plane crosses a
 //! box's bounding box gives a lower bound on the distance of a hit and the elevations
-//! that can hit it, so a ray runs the slab test only on those, nearest first, and stops
-//! early. Which boxes are tested does not change the result (the nearest entry of
-//! every box that can be hit), so the points equal those of a test against every box.
-//! Knows nothing of noise.
+//! that can hit it, so only those rows run the slab test. Which boxes are tested does
+//! not change the result (the nearest entry of every box that can be hit), so the
+//! points equal those of a test against every box. Knows nothing of noise.
 
 use crate::SensorPose;
+use crate::column::{AZIMUTH_ERR, Column, NEAR_SLACK, RowTable, Span, Sweep, azimuth, box_rows};
 use crate::grid::Near;
 use crate::pattern::ScanPattern;
 use crate::planar::slab;
@@ -39,14 +40,6 @@ struct SensorObb {
 /// rounding in f32 never drops a box the ray test would hit (metres).
 const PAD: f64 = 1e-3;
 
-/// Columns `c_lo..=c_hi` may see box `obb`.
-#[derive(Debug, Clone, Copy)]
-struct Span {
-    c_lo: u32,
-    c_hi: u32,
-    obb: u32,
-}
-
 /// A box as seen by one column: ray direction in the box frame is
 /// `cos e * a + sin e * b`.
 #[derive(Debug, Clone, Copy)]
@@ -55,47 +48,33 @@ struct Candidate {
     b: [f32; 3],
     origin: [f32; 3],
     half: [f32; 3],
-    near: f32,
-    /// Tangents of the elevations at which this column's rays can meet the box.
-    tan_lo: f32,
-    tan_hi: f32,
 }
 
 #[derive(Debug, Clone)]
 pub(crate) struct GeneralCaster {
     obbs: Vec<SensorObb>,
-    spans: Vec<Span>,
-    active: Vec<u32>,
-    cands: Vec<Candidate>,
-    /// The candidates in order of `near`: its bits (never negative, so they sort as
-    /// integers) above the candidate's index.
-    order: Vec<u64>,
+    sweep: Sweep,
+    column: Column,
+    table: RowTable,
     near: Near,
 }
 
-/// The pattern's angles and range, for spans.
+/// The pattern's azimuths and range, for spans.
 #[derive(Debug, Clone, Copy)]
 struct Grid {
     range: f64,
-    rows: usize,
     cols: usize,
-    el0: f64,
-    el_step: f64,
     az0: f64,
     az_step: f64,
 }
 
 impl Grid {
     fn new(pattern: &ScanPattern) -> Grid {
-        let el = pattern.elevations();
         let az = pattern.azimuths();
-        let (rows, cols) = (pattern.rows(), pattern.columns());
+        let cols = pattern.columns();
         Grid {
             range: pattern.max_range(),
-            rows,
             cols,
-            el0: el[0],
-            el_step: if rows > 1 { el[1] - el[0] } else { 1.0 },
             az0: az[0],
             az_step: if cols > 1 { az[1] - az[0] } else { 1.0 },
         }
@@ -112,14 +91,13 @@ impl Grid {
 }
 
 impl GeneralCaster {
-    pub(crate) fn new(box_count: usize) -> GeneralCaster {
+    pub(crate) fn new(box_count: usize, pattern: &ScanPattern) -> GeneralCaster {
         GeneralCaster {
             obbs: Vec::with_capacity(box_count),
             // A box can straddle the +-pi seam of a 360 deg scan: up to three spans.
-            spans: Vec::with_capacity(3 * box_count),
-            active: Vec::with_capacity(3 * box_count),
-            cands: Vec::with_capacity(3 * box_count),
-            order: Vec::with_capacity(3 * box_count),
+            sweep: Sweep::with_capacity(3 * box_count),
+            column: Column::new(pattern.rows()),
+            table: RowTable::new(&pattern.tan_el),
             near: Near::new(box_count),
         }
     }
@@ -132,39 +110,27 @@ impl GeneralCaster {
         hit_floor: bool,
         out: &mut [[f32; 3]],
     ) -> usize {
-        let range = pattern.max_range;
         let grid = Grid::new(pattern);
         self.place_boxes(world, sensor, &grid);
-        self.spans.sort_unstable_by_key(|s| (s.c_lo, s.obb));
-        let r = &sensor.rotation;
-        let height = sensor.position[2];
+        self.sweep.start();
         let rows = pattern.rows();
         let cols = pattern.columns();
         let mut hits = 0;
-        let mut next = 0;
-        self.active.clear();
         for col in 0..cols {
-            let ca = pattern.cos_az[col];
-            let sa = pattern.sin_az[col];
-            next = self.column_candidates(col, next, ca, sa);
-            // World z of the column's horizontal direction, for the floor.
-            let gz_h = (r[2][0] * f64::from(ca) + r[2][1] * f64::from(sa)) as f32;
-            for row in 0..rows {
-                let ce = pattern.cos_el[row];
-                let se = pattern.sin_el[row];
-                let mut best = range;
-                let mut hit = false;
-                let dz = ce * gz_h + se * r[2][2] as f32;
-                if hit_floor && dz < 0.0 && height > 0.0 {
-                    let t = (height / f64::from(-dz)) as f32;
-                    if t <= best {
-                        best = t;
-                        hit = true;
-                    }
+            self.sweep.advance(col);
+            let (ca, sa) = (pattern.cos_az[col], pattern.sin_az[col]);
+            self.begin_column(pattern, sensor, hit_floor, ca, sa);
+            for a in self.sweep.active() {
+                if self.column.beyond(a.near()) {
+                    break;
                 }
-                hit |= self.nearest_box(pattern.tan_el[row], ce, se, &mut best);
-                out[row * cols + col] = if hit {
+                let o = &self.obbs[a.item()];
+                cast_obb(o, ca, sa, pattern, &self.table, &mut self.column);
+            }
+            for row in 0..rows {
+                out[row * cols + col] = if self.column.hit[row] {
                     hits += 1;
+                    let best = self.column.best[row];
                     let d = pattern.direction(row, col);
                     [best * d[0], best * d[1], best * d[2]]
                 } else {
@@ -175,12 +141,44 @@ impl GeneralCaster {
         hits
     }
 
+    /// Starts the column of azimuth (cos `ca`, sin `sa`): each row at max range (no
+    /// return), or where it meets the floor if it is hit.
+    #[inline]
+    fn begin_column(
+        &mut self,
+        pattern: &ScanPattern,
+        sensor: &SensorPose,
+        hit_floor: bool,
+        ca: f32,
+        sa: f32,
+    ) {
+        let r = &sensor.rotation;
+        let height = sensor.position[2];
+        // World z of the column's horizontal direction, for the floor.
+        let gz_h = (r[2][0] * f64::from(ca) + r[2][1] * f64::from(sa)) as f32;
+        for row in 0..pattern.rows() {
+            let mut best = pattern.max_range;
+            let mut hit = false;
+            let dz = pattern.cos_el[row] * gz_h + pattern.sin_el[row] * r[2][2] as f32;
+            if hit_floor && dz < 0.0 && height > 0.0 {
+                let t = (height / f64::from(-dz)) as f32;
+                if t <= best {
+                    best = t;
+                    hit = true;
+                }
+            }
+            self.column.best[row] = best;
+            self.column.hit[row] = hit;
+        }
+        self.column.refresh();
+    }
+
     /// Moves every enabled box near the sensor into the sensor frame, drops those that
     /// hold the sensor, lie beyond range or outside every row, and lists the columns
     /// each may cover.
     fn place_boxes(&mut self, world: &World, sensor: &SensorPose, grid: &Grid) {
         self.obbs.clear();
-        self.spans.clear();
+        self.sweep.clear();
         let centre = [sensor.position[0], sensor.position[1]];
         world.gather_near(centre, grid.range, &mut self.near);
         for k in 0..self.near.list.len() {
@@ -214,9 +212,12 @@ impl GeneralCaster {
             // Half extents of the box's bounding box in the sensor frame.
             let ext: [f64; 3] =
                 std::array::from_fn(|j| (0..3).map(|i| axes[i][j].abs() * half[i]).sum::<f64>());
-            if rows(grid, c, ext).is_none() {
+            let z = [c[2] - ext[2], c[2] + ext[2]];
+            let Some((_, _, dmin)) =
+                box_rows(&self.table, grid.range, [c[0], c[1]], [ext[0], ext[1]], z)
+            else {
                 continue;
-            }
+            };
             let index = self.obbs.len() as u32;
             self.obbs.push(SensorObb {
                 axes: axes.map(|a| a.map(|v| v as f32)),
@@ -227,7 +228,16 @@ impl GeneralCaster {
                 ext: [(ext[0] + PAD) as f32, (ext[1] + PAD) as f32],
                 z: [(c[2] - ext[2] - PAD) as f32, (c[2] + ext[2] + PAD) as f32],
             });
-            self.push_spans(grid, c, ext, &axes, &half, index);
+            // A ray's distance is at least its distance from the sensor z axis, so
+            // the bounding box's least one bounds it too: tighter than the sphere's
+            // for a tall or long box.
+            let span = Span {
+                c_lo: 0,
+                c_hi: 0,
+                item: index,
+                near: near.max(dmin - NEAR_SLACK).max(0.0) as f32,
+            };
+            self.push_spans(grid, c, ext, &axes, &half, span);
         }
     }
 
@@ -241,129 +251,90 @@ impl GeneralCaster {
         ext: [f64; 3],
         axes: &[[f64; 3]; 3],
         half: &[f64; 3],
-        obb: u32,
+        span: Span,
     ) {
         let last = (grid.cols - 1) as u32;
         if c[0].abs() <= ext[0] && c[1].abs() <= ext[1] {
-            self.spans.push(Span {
+            self.sweep.spans.push(Span {
                 c_lo: 0,
                 c_hi: last,
-                obb,
+                ..span
             });
             return;
         }
         // The box's projection misses the z axis, so its azimuths lie within a half
         // turn of the centre's.
-        let ac = c[1].atan2(c[0]);
+        let ac = azimuth(c[1], c[0]);
         let (mut dlo, mut dhi) = (f64::INFINITY, f64::NEG_INFINITY);
         for k in 0..8 {
             let sgn = |bit: usize| if k & bit == 0 { 1.0 } else { -1.0 };
             let s = [sgn(1) * half[0], sgn(2) * half[1], sgn(4) * half[2]];
             let px = c[0] + s[0] * axes[0][0] + s[1] * axes[1][0] + s[2] * axes[2][0];
             let py = c[1] + s[0] * axes[0][1] + s[1] * axes[1][1] + s[2] * axes[2][1];
-            let d = aisle_geometry::wrap_angle(py.atan2(px) - ac);
+            let d = aisle_geometry::wrap_angle(azimuth(py, px) - ac);
             dlo = dlo.min(d);
             dhi = dhi.max(d);
         }
+        // Both angles may be off by the approximation's error.
+        (dlo, dhi) = (dlo - 2.0 * AZIMUTH_ERR, dhi + 2.0 * AZIMUTH_ERR);
         for shift in [-std::f64::consts::TAU, 0.0, std::f64::consts::TAU] {
             let (lo, hi) = (ac + dlo + shift, ac + dhi + shift);
             if let Some((c_lo, c_hi)) = Grid::channels(lo, hi, grid.az0, grid.az_step, grid.cols) {
-                self.spans.push(Span { c_lo, c_hi, obb });
+                self.sweep.spans.push(Span { c_lo, c_hi, ..span });
             }
         }
-    }
-
-    /// Updates the active spans for column `col` (spans from `next` on start at or
-    /// after it) and keeps their boxes, in order of nearest possible hit, as seen along
-    /// the column's azimuth (cos `ca`, sin `sa`). Returns the new `next`.
-    #[inline]
-    fn column_candidates(&mut self, col: usize, mut next: usize, ca: f32, sa: f32) -> usize {
-        while next < self.spans.len() && self.spans[next].c_lo as usize <= col {
-            self.active.push(next as u32);
-            next += 1;
-        }
-        let spans = &self.spans;
-        self.active
-            .retain(|&si| spans[si as usize].c_hi as usize >= col);
-        self.cands.clear();
-        self.order.clear();
-        for &si in &self.active {
-            let o = &self.obbs[spans[si as usize].obb as usize];
-            // A ray of this column at distance t is t cos e along (ca, sa) in the xy
-            // plane, so it can meet the box only where that 2D ray crosses the box's
-            // xy bounding box, at s_in <= t cos e <= t.
-            let Some((sx0, sx1)) = slab(-o.xy[0], ca, o.ext[0]) else {
-                continue;
-            };
-            let Some((sy0, sy1)) = slab(-o.xy[1], sa, o.ext[1]) else {
-                continue;
-            };
-            let s_in = sx0.max(sy0).max(0.0);
-            let s_out = sx1.min(sy1);
-            if s_in > s_out {
-                continue;
-            }
-            let (tan_lo, tan_hi) = tan_bounds(s_in, s_out, o.z);
-            // + 0.0 turns a -0.0 into 0.0, whose bits sort first.
-            let near = o.near.max(s_in) + 0.0;
-            self.order
-                .push((u64::from(near.to_bits()) << 32) | self.cands.len() as u64);
-            self.cands.push(Candidate {
-                a: o.axes.map(|ax| ax[0] * ca + ax[1] * sa),
-                b: o.axes.map(|ax| ax[2]),
-                origin: o.origin,
-                half: o.half,
-                near,
-                tan_lo,
-                tan_hi,
-            });
-        }
-        self.order.sort_unstable();
-        next
-    }
-
-    /// Lowers `best` to the nearest entry into a candidate of the ray at elevation
-    /// (tan `tan_e`, cos `ce`, sin `se`) of the current column; whether any was hit.
-    #[inline]
-    fn nearest_box(&self, tan_e: f32, ce: f32, se: f32, best: &mut f32) -> bool {
-        let mut hit = false;
-        for &key in &self.order {
-            let cand = &self.cands[(key & 0xffff_ffff) as usize];
-            if cand.near > *best {
-                break;
-            }
-            if tan_e < cand.tan_lo || tan_e > cand.tan_hi {
-                continue;
-            }
-            if let Some(t) = entry(cand, ce, se)
-                && t <= *best
-            {
-                *best = t;
-                hit = true;
-            }
-        }
-        hit
     }
 }
 
-/// The rows that may see a box centred at `c` with sensor-frame half extents `ext`
-/// (one spare channel either way), or `None` when it is beyond range or outside every
-/// row. Its points have height in [z0, z1] and distance from the z axis in
-/// [dmin, dmax], which bound their elevations.
-fn rows(grid: &Grid, c: [f64; 3], ext: [f64; 3]) -> Option<(u32, u32)> {
-    let ex = (c[0].abs() - ext[0]).max(0.0);
-    let ey = (c[1].abs() - ext[1]).max(0.0);
-    let dmin = ex.hypot(ey);
-    if dmin > grid.range {
-        return None;
+/// Lowers the best hits of the current column (cos `ca`, sin `sa`) to where its rays
+/// enter box `o`, in the rows whose elevations can meet it. A ray of this column at
+/// distance t is t cos e along (ca, sa) in the xy plane, so it can meet the box only
+/// where that 2D ray crosses the box's xy bounding box, at s_in <= t cos e <= t.
+#[inline]
+fn cast_obb(
+    o: &SensorObb,
+    ca: f32,
+    sa: f32,
+    pattern: &ScanPattern,
+    table: &RowTable,
+    column: &mut Column,
+) {
+    let Some((sx0, sx1)) = slab(-o.xy[0], ca, o.ext[0]) else {
+        return;
+    };
+    let Some((sy0, sy1)) = slab(-o.xy[1], sa, o.ext[1]) else {
+        return;
+    };
+    let s_in = sx0.max(sy0).max(0.0);
+    let s_out = sx1.min(sy1);
+    if s_in > s_out {
+        return;
     }
-    let dmax = (c[0].abs() + ext[0])
-        .hypot(c[1].abs() + ext[1])
-        .min(grid.range);
-    let (z0, z1) = (c[2] - ext[2], c[2] + ext[2]);
-    let e_hi = z1.atan2(if z1 > 0.0 { dmin } else { dmax });
-    let e_lo = z0.atan2(if z0 > 0.0 { dmax } else { dmin });
-    Grid::channels(e_lo, e_hi, grid.el0, grid.el_step, grid.rows)
+    // + 0.0 turns a -0.0 into 0.0.
+    let near = o.near.max(s_in) + 0.0;
+    if column.beyond(near) {
+        return;
+    }
+    let (tan_lo, tan_hi) = tan_bounds(s_in, s_out, o.z);
+    let Some((first, last)) = table.rows(tan_lo, tan_hi) else {
+        return;
+    };
+    let cand = Candidate {
+        a: o.axes.map(|ax| ax[0] * ca + ax[1] * sa),
+        b: o.axes.map(|ax| ax[2]),
+        origin: o.origin,
+        half: o.half,
+    };
+    for row in first..=last {
+        let best = column.best[row];
+        let tan_e = pattern.tan_el[row];
+        if near > best || tan_e < tan_lo || tan_e > tan_hi {
+            continue;
+        }
+        if let Some(t) = entry(&cand, pattern.cos_el[row], pattern.sin_el[row], best) {
+            column.set(row, t);
+        }
+    }
 }
 
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
@@ -374,7 +345,7 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
 /// `s_out`] and height in `z` (sensor frame): where a ray of the column can meet a box
 /// whose bounding box gives those.
 #[inline]
-fn tan_bounds(s_in: f32, s_out: f32, z: [f32; 2]) -> (f32, f32) {
+pub(crate) fn tan_bounds(s_in: f32, s_out: f32, z: [f32; 2]) -> (f32, f32) {
     if s_out.is_nan() || s_out <= 0.0 {
         return (f32::NEG_INFINITY, f32::INFINITY);
     }
@@ -390,9 +361,11 @@ fn tan_bounds(s_in: f32, s_out: f32, z: [f32; 2]) -> (f32, f32) {
     (lo, hi)
 }
 
-/// Entry distance of the ray into the box, if it enters at t >= 0.
+/// Entry distance of the ray into the box, if it enters at t >= 0 and no farther than
+/// `best`. The entry only grows and the exit only shrinks from axis to axis, so a ray
+/// that has left the box, or entered it beyond `best`, is dropped at once.
 #[inline]
-fn entry(c: &Candidate, ce: f32, se: f32) -> Option<f32> {
+fn entry(c: &Candidate, ce: f32, se: f32, best: f32) -> Option<f32> {
     let mut t0 = 0.0f32;
     let mut t1 = f32::INFINITY;
     for i in 0..3 {
@@ -405,9 +378,12 @@ fn entry(c: &Candidate, ce: f32, se: f32) -> Option<f32> {
             let tb = (h - o) * inv;
             t0 = t0.max(ta.min(tb));
             t1 = t1.min(ta.max(tb));
+            if t0 > t1 || t0 > best {
+                return None;
+            }
         } else if o.abs() > h {
             return None;
         }
     }
-    (t0 <= t1).then_some(t0)
+    Some(t0)
 }

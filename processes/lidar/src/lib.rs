@@ -40,6 +40,7 @@
 //! modules know nothing of the bus or the URDF: the caller passes the mount (or the
 //! sensor's world pose).
 
+mod column;
 mod error;
 mod general;
 mod grid;

@@ -57,8 +57,8 @@ impl Raycaster {
         let world = World::from_scene(scene)?;
         let boxes = world.box_count();
         let mut r = Raycaster {
-            planar: PlanarCaster::new(boxes, pattern.rows()),
-            general: GeneralCaster::new(boxes),
+            planar: PlanarCaster::new(boxes, &pattern),
+            general: GeneralCaster::new(boxes, &pattern),
             pattern,
             world,
             hit_floor: config.hit_floor,
