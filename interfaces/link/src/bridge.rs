@@ -12,9 +12,15 @@
 //! - samples travel whole, user header then payload, one Zenoh put per sample, keyed by
 //!   the service hash (`iox2/v1/channel/<hash>/<types fingerprint>`).
 //!
+//! - the link keeps no order between services: the tick protocol travels beside it
+//!   (`crate::ordered`), sequenced around its rounds.
+//!
 //! Knows the link and Zenoh; not which topics cross (the caller says) nor the nodes.
 
 use crate::HostDecl;
+use crate::ordered::Ordered;
+use aisle_bus::{Bus, Instance};
+use aisle_messages::{NodeKind, topics};
 use iceoryx2::prelude::*;
 use iceoryx2_integrations_zenoh_link_carrier::ZenohCarrier;
 use iceoryx2_link::Link;
@@ -81,20 +87,24 @@ const ROUND: Duration = Duration::from_micros(500);
 const DISCOVERY: Duration = Duration::from_millis(100);
 
 impl Bridge {
-    /// Starts the link of `host` for the instance configured by `config`, bridging the
-    /// services called `topics` only, on `session`.
+    /// Starts the link of `host` for `instance`, on `session`: the services called
+    /// `topics` are bridged, those of them in [`ORDERED`] in order with the rest
+    /// (`crate::ordered`), sent out when written by one of the nodes `sources` (their
+    /// `NodeKind` codes: the nodes of this host).
     pub fn start(
         host: &str,
-        config: &iceoryx2::config::Config,
+        instance: &Instance,
         session: zenoh::Session,
         topics: Vec<String>,
+        sources: Vec<u32>,
     ) -> Result<Bridge, LinkError> {
         let stop = Arc::new(AtomicBool::new(false));
         let (ready_tx, ready_rx) = mpsc::channel::<Result<(), String>>();
-        let (cfg, flag, name) = (config.clone(), stop.clone(), host.to_string());
+        let (inst, flag, name) = (instance.clone(), stop.clone(), host.to_string());
+        let sides = Sides { topics, sources };
         let thread = std::thread::Builder::new()
             .name(format!("link-{host}"))
-            .spawn(move || run(&name, &cfg, session, topics, &flag, ready_tx))
+            .spawn(move || run(&name, &inst, session, sides, &flag, ready_tx))
             .map_err(|e| LinkError::Start {
                 host: host.into(),
                 what: format!("cannot start the link thread: {e}"),
@@ -123,15 +133,35 @@ impl Drop for Bridge {
     }
 }
 
+/// The topics protocol samples travel beside the link, in order with the data.
+pub const ORDERED: [&str; 2] = [topics::TICK.name, topics::TICK_DONE.name];
+
+/// What a link bridges and whose protocol samples it sends out.
+struct Sides {
+    topics: Vec<String>,
+    sources: Vec<u32>,
+}
+
 fn run(
     host: &str,
-    config: &iceoryx2::config::Config,
+    instance: &Instance,
     session: zenoh::Session,
-    topics: Vec<String>,
+    sides: Sides,
     stop: &AtomicBool,
     ready: mpsc::Sender<Result<(), String>>,
 ) {
     let setup = || -> Result<_, String> {
+        let config = &instance.iceoryx_config().map_err(|e| e.to_string())?;
+        // The link's own member of the instance, for the ordered topics' raw ports (they
+        // copy samples whole, header and writer included). Named `replay`: like a
+        // replay, it publishes what others wrote.
+        let bus = Bus::second_member(instance, NodeKind::Replay).map_err(|e| e.to_string())?;
+        let (ordered, bridged): (Vec<String>, Vec<String>) = sides
+            .topics
+            .into_iter()
+            .partition(|t| ORDERED.contains(&t.as_str()));
+        let ordered = Ordered::open(&bus, &session, &ordered, sides.sources)?;
+        let topics = bridged;
         let carrier = ZenohCarrier::open(session).map_err(|e| format!("zenoh carrier: {e}"))?;
         let node = NodeBuilder::new()
             .config(config)
@@ -141,9 +171,9 @@ fn run(
         let mut link = Link::new(node, Tunnel::new(carrier, config))
             .with_filter(move |name| topics.iter().any(|t| t.as_str() == name.as_str()));
         let listener = link.listener().map_err(|e| format!("link wake-up: {e}"))?;
-        Ok((link, listener))
+        Ok((link, listener, ordered, bus))
     };
-    let (mut link, listener) = match setup() {
+    let (mut link, listener, mut ordered, _bus) = match setup() {
         Ok(v) => {
             let _ = ready.send(Ok(()));
             v
@@ -163,8 +193,11 @@ fn run(
                 tracing::warn!(host, "link discovery: {e}");
             }
         }
+        let held = ordered.take();
         // A failure repeats every round while it lasts: said once.
-        match link.propagate() {
+        let propagated = link.propagate();
+        ordered.deliver(held);
+        match propagated {
             Ok(()) => failing = None,
             Err(e) if failing != Some(e) => {
                 tracing::warn!(host, "link propagation: {e}");

@@ -16,6 +16,7 @@ pub mod bridge;
 pub mod control;
 pub mod crossing;
 pub mod hosts;
+mod ordered;
 
 pub use bridge::{Bridge, LinkError, zenoh_config};
 pub use control::{

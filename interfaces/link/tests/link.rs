@@ -78,10 +78,8 @@ fn a_bridged_topic_crosses_with_its_wake_up_and_no_other_does() {
         .unwrap();
     let za = open_session("a", zenoh_config(&da, "aisle-test").unwrap()).unwrap();
     let zb = open_session("b", zenoh_config(&db, "aisle-test").unwrap()).unwrap();
-    let cfg_a = sa.instance.iceoryx_config().unwrap();
-    let cfg_b = sb.instance.iceoryx_config().unwrap();
-    let _link_a = Bridge::start("a", &cfg_a, za, bridged.clone()).unwrap();
-    let _link_b = Bridge::start("b", &cfg_b, zb, bridged).unwrap();
+    let _link_a = Bridge::start("a", &sa.instance, za, bridged.clone(), vec![]).unwrap();
+    let _link_b = Bridge::start("b", &sb.instance, zb, bridged, vec![]).unwrap();
 
     let mut state = bus_a.publisher(topics::ROBOT_STATE).unwrap();
     let mut tick = bus_a.publisher(topics::TICK).unwrap();

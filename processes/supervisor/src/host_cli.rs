@@ -211,11 +211,17 @@ fn start_part(start: &StartGroup, here: &Here<'_>) -> anyhow::Result<Part> {
                 .ok_or_else(|| anyhow!("no topic called `{t}` to bridge"))?,
         );
     }
+    let sources: Vec<u32> = start
+        .nodes
+        .keys()
+        .filter_map(|n| NodeKind::from_name(n).map(|k| k.code()))
+        .collect();
     let bridge = Bridge::start(
         name,
-        &instance.iceoryx_config()?,
+        &instance,
         session.clone(),
         start.topics.clone(),
+        sources,
     )?;
     tracing::info!(host = name, prefix = %instance.prefix, "bridging {}", start.topics.join(", "));
     let args = start.nodes.clone();

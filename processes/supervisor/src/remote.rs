@@ -71,8 +71,20 @@ impl RemoteNodes {
         }
         let zcfg = aisle_link::zenoh_config(home, NAMESPACE)?;
         let session = aisle_link::open_session(&home.name, zcfg)?;
-        let iox = s.instance.iceoryx_config()?;
-        let bridge = Bridge::start(&home.name, &iox, session.clone(), mine.clone())?;
+        let sources: Vec<u32> = s
+            .graph
+            .nodes()
+            .iter()
+            .filter(|n| s.placement.host_of(&n.name) == home.name)
+            .map(|n| n.kind().code())
+            .collect();
+        let bridge = Bridge::start(
+            &home.name,
+            s.instance,
+            session.clone(),
+            mine.clone(),
+            sources,
+        )?;
         tracing::info!(host = %home.name, "bridging {} topics: {}", mine.len(), mine.join(", "));
         let client = ControlClient::new(&session)?;
         let mut placed = BTreeMap::new();
