@@ -74,6 +74,13 @@ impl Bus {
         Ok((bus, info))
     }
 
+    /// Another member for a process that created or joined the instance already (a
+    /// host's link thread): no announcement is awaited, the schema was checked.
+    pub fn second_member(instance: &Instance, kind: NodeKind) -> Result<Bus, BusError> {
+        instance.check_joinable()?;
+        Self::open(instance, kind)
+    }
+
     /// A process joins: it waits for the supervisor's announcement and refuses to run
     /// when the schema hashes differ, naming both.
     pub fn join(

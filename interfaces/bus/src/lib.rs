@@ -11,6 +11,8 @@
 //!   service of the same name so a process sleeps until data arrives or a deadline passes.
 //!   Large messages are zero-filled and written in place in the loaned sample.
 //! - [`Bus::services`]: the instance's publish/subscribe services with their port counts.
+//! - [`Bus::hold_service`]: a topic's service held open without ports, with the agreed
+//!   settings (what a host's link bridges must exist so).
 //! - [`signals`]: SIGINT/SIGTERM become a stop request that every wait loop checks.
 //!
 //! Ports are opened with the typed topics of `aisle_messages::topics` (name, type and
@@ -24,6 +26,7 @@ mod bus;
 pub mod clock;
 pub mod discovery;
 mod error;
+mod hold;
 mod instance;
 mod mgmt_segment;
 mod node;
@@ -40,6 +43,7 @@ pub use aisle_messages::{Qos, Topic};
 pub use args::{NodeArgs, StageTimer};
 pub use bus::{Bus, HeartbeatSender};
 pub use error::BusError;
+pub use hold::HeldService;
 pub use instance::{Instance, MAX_ROOT_AND_PREFIX};
 pub use node::NodeError;
 pub use port::{

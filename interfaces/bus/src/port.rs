@@ -280,7 +280,7 @@ impl<M: Message> Subscriber<M> {
 
 /// Opens (or creates) the publish/subscribe half of `service` with the QoS every process
 /// agrees on.
-fn pubsub_service<M: Message>(
+pub(crate) fn pubsub_service<M: Message>(
     node: &Node<ipc::Service>,
     service: &str,
     qos: &Qos,
@@ -304,7 +304,7 @@ fn pubsub_service<M: Message>(
         .map_err(|e| BusError::service(service, e))
 }
 
-fn event_service(
+pub(crate) fn event_service(
     node: &Node<ipc::Service>,
     service: &str,
 ) -> Result<iceoryx2::service::port_factory::event::PortFactory<ipc::Service>, BusError> {

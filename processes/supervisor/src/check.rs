@@ -95,6 +95,13 @@ pub fn check_dir(dir: &Path) -> Result<Vec<PathBuf>, String> {
         realtime::check(dir, &graph)?;
         checked.push(realtime_file);
     }
+    // And hosts.toml (where a spread run places the nodes; absent: all local).
+    let hosts_file = dir.join("hosts.toml");
+    if hosts_file.exists() {
+        let graph = aisle_node::Graph::load_dir(dir).map_err(|e| e.to_string())?;
+        aisle_link::Placement::load(&hosts_file, &graph).map_err(|e| e.to_string())?;
+        checked.push(hosts_file);
+    }
     let known: Vec<PathBuf> = checked
         .iter()
         .filter_map(|p| p.file_name().map(PathBuf::from))
@@ -106,7 +113,7 @@ pub fn check_dir(dir: &Path) -> Result<Vec<PathBuf>, String> {
             && !known.iter().any(|k| Some(k.as_os_str()) == p.file_name())
         {
             return Err(format!(
-                "{}: not a file aisle reads (expected warehouse, robot, lidar, mapper, planner, teb, mission, budgets, restart, graph, realtime .toml)",
+                "{}: not a file aisle reads (expected warehouse, robot, lidar, mapper, planner, teb, mission, budgets, restart, graph, realtime, hosts .toml)",
                 p.display()
             ));
         }

@@ -35,7 +35,8 @@ use std::process::ExitCode;
 process group on shared memory, watch and replay them, profile, render and check them",
     long_about = "Warehouse robot navigation in simulation. `run` launches the process \
 group (simulator, lidar, mapper, global planner, TEB controller, nodes of your own) on \
-iceoryx2 shared memory and drives the mission; `check` validates a config, `init` writes \
+iceoryx2 shared memory and drives the mission (`host` serves the nodes of another host \
+when `run --hosts` spreads the group); `check` validates a config, `init` writes \
 the built-in one out to edit, `map export` writes its static map, `scenario` varies it, \
 `scene generate` writes a larger warehouse, `sweep` runs many generated scenarios; `record`, `replay`, `profile`, `render` and \
 `export` (a ROS 2 bag) work on MCAP records; `instance`, `topics`, `echo` and `hz` inspect a live group; `clean` \
@@ -159,6 +160,29 @@ arguments, unwritable output directory)."
     Install(install::InstallCommand),
     #[command(flatten)]
     Scene(crate::scene_cli::SceneCommand),
+    /// Serve one host of a group spread over hosts: start here the nodes `aisle run
+    /// --hosts FILE` places on this host, bridge the topics that cross hosts, until
+    /// Ctrl-C. Start it on every host but the supervisor's before the run.
+    #[command(
+        after_help = "Exit: 0 stopped, 2 could not serve (invalid hosts file or \
+config, no such host, the Zenoh endpoints could not be opened)."
+    )]
+    Host {
+        /// This host's name in the hosts file.
+        #[arg(long)]
+        name: String,
+        /// The hosts file (`config/hosts.toml` shows the format).
+        #[arg(long, value_name = "FILE")]
+        hosts: PathBuf,
+        /// The config directory (default: the built-in config); the same as the
+        /// supervisor's, or the spread run differs from a local one.
+        #[arg(long)]
+        config_dir: Option<PathBuf>,
+        /// Fault injection for tests: answer as a build of this schema hash (16 hex
+        /// digits) would.
+        #[arg(long, value_name = "HEX", hide = true)]
+        pretend_schema: Option<String>,
+    },
     /// Run one node of a process group (started by `aisle run`, not by hand).
     #[command(hide = true)]
     Node(NodeCmd),
@@ -240,6 +264,17 @@ pub fn main() -> ExitCode {
         } => {
             log("warn");
             records::render(&file, &output, pixels_per_metre, band_every)
+        }
+        Command::Host {
+            name,
+            hosts,
+            config_dir: cd,
+            pretend_schema,
+        } => {
+            log("info");
+            with_config(cd.as_deref(), |c| {
+                crate::host_cli::main(&name, &hosts, c, pretend_schema.as_deref())
+            })
         }
         Command::Clean { dry_run } => crate::clean::clean(dry_run),
         Command::Inspect(c) => crate::inspect_cli::main(c),

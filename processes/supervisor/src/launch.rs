@@ -106,6 +106,8 @@ pub struct ProcessGroup {
     spec: LaunchSpec,
     /// The last line each node wrote to stderr (its last error), forwarded as it comes.
     last_lines: Arc<Mutex<HashMap<NodeKind, String>>>,
+    /// The nodes placed on other hosts (`aisle run --hosts`).
+    remote: Option<crate::remote::RemoteNodes>,
 }
 
 impl ProcessGroup {
@@ -114,12 +116,38 @@ impl ProcessGroup {
             children: Vec::new(),
             spec,
             last_lines: Arc::default(),
+            remote: None,
         }
+    }
+
+    /// From now on, the nodes placed on other hosts are started, killed and watched
+    /// through `remote`.
+    pub fn attach_remote(&mut self, remote: crate::remote::RemoteNodes) {
+        self.remote = Some(remote);
+    }
+
+    /// The extra arguments `kind` is started with.
+    pub fn args_of(&self, kind: NodeKind) -> Vec<String> {
+        (self.spec.extra)(kind)
+    }
+
+    /// Whether `kind` runs on this host.
+    pub fn is_local(&self, kind: NodeKind) -> bool {
+        self.remote
+            .as_ref()
+            .is_none_or(|r| r.host_of(kind).is_none())
     }
 
     /// Starts one node; `restarted` tells it to resume from the state its predecessor
     /// published. On failure the caller stops the group.
     pub fn spawn(&mut self, kind: NodeKind, restarted: bool) -> Result<(), String> {
+        if let Some((r, host)) = self
+            .remote
+            .as_ref()
+            .and_then(|r| Some((r, r.host_of(kind)?)))
+        {
+            return r.spawn(host, kind, restarted);
+        }
         let mut cmd = self.spec.command(kind, restarted);
         cmd.stdin(Stdio::null())
             .stderr(Stdio::piped())
@@ -195,6 +223,13 @@ impl ProcessGroup {
     /// SIGKILL to a live node (a fault injected on purpose, or a node that stopped
     /// sending heartbeats); it is reaped by the next [`ProcessGroup::poll_exit`].
     pub fn kill(&self, kind: NodeKind) {
+        if let Some((r, host)) = self
+            .remote
+            .as_ref()
+            .and_then(|r| Some((r, r.host_of(kind)?)))
+        {
+            return r.kill(host, kind);
+        }
         if let Some(pid) = self.pid_of(kind) {
             // SAFETY: sending a signal to our own child's pid.
             unsafe { libc::kill(pid as i32, libc::SIGKILL) };
@@ -211,7 +246,7 @@ impl ProcessGroup {
                 return Some((c.kind, status));
             }
         }
-        None
+        self.remote.as_ref().and_then(|r| r.poll_exit())
     }
 
     pub fn pid_of(&self, kind: NodeKind) -> Option<u32> {
@@ -227,6 +262,9 @@ impl ProcessGroup {
     /// Returns how each ended.
     pub fn stop(&mut self, grace: Duration) -> Vec<(NodeKind, ExitStatus)> {
         self.stop_where(grace, |k| k != NodeKind::Recorder);
+        if let Some(r) = self.remote.take() {
+            r.stop(grace);
+        }
         self.stop_where(RECORDER_GRACE.max(grace), |k| k == NodeKind::Recorder);
         self.children
             .iter()
@@ -273,6 +311,14 @@ impl Drop for ProcessGroup {
     fn drop(&mut self) {
         self.stop(Duration::from_millis(1500));
     }
+}
+
+/// The external nodes' commands (program and arguments), from the graph.
+pub fn external_commands(graph: &aisle_node::Graph) -> HashMap<NodeKind, Vec<String>> {
+    graph
+        .external()
+        .filter_map(|n| Some((n.kind(), n.command.clone()?)))
+        .collect()
 }
 
 /// The binary to re-execute for the nodes: this one.

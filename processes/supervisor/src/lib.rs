@@ -3,6 +3,8 @@
 //! - [`cli`]: argument parsing and dispatch (`run`, `check`, `node`, `map export`, ...);
 //!   the only module that knows clap: it hands the others plain option structs.
 //! - [`launch`]: starting, watching and stopping the node processes.
+//! - [`remote`]: the nodes on other hosts of a spread run (`run --hosts`), through
+//!   their hosts' daemons; [`host_cli`]: `aisle host`, that daemon.
 //! - [`session`]: one run of the process group: startup, node health and restarts,
 //!   the tick loop, the mission's actions on the bus, shutdown and the report.
 //! - [`mission`]: `mission.toml` and the mission state machine (pure; no bus, no clock).
@@ -30,6 +32,7 @@ pub mod collisions;
 pub mod exit;
 pub mod export_cli;
 pub mod gen_cli;
+pub mod host_cli;
 pub mod inspect_cli;
 pub mod launch;
 pub mod live_cli;
@@ -38,6 +41,7 @@ pub mod nodes;
 pub mod profile_cli;
 pub mod pygen;
 pub mod records;
+pub mod remote;
 pub mod replay_check;
 pub mod report;
 pub mod restart;

@@ -56,6 +56,8 @@ pub struct RunOptions {
     pub samples: Option<PathBuf>,
     /// Serve the run live over the Foxglove WebSocket protocol here (`--foxglove`).
     pub foxglove: Option<std::net::SocketAddr>,
+    /// `--hosts`: the placement of a group spread over hosts.
+    pub hosts: Option<PathBuf>,
 }
 
 pub struct RunOutcome {

@@ -52,6 +52,10 @@ pub struct RunArgs {
     /// Fault injection: this node fails at every start (tests the restart limit).
     #[arg(long, value_name = "NODE", hide = true)]
     pub crash_on_start: Option<String>,
+    /// Spread the group over the hosts of this file (`config/hosts.toml` shows the
+    /// format); each other host runs `aisle host --name NAME --hosts FILE` first.
+    #[arg(long, value_name = "FILE")]
+    pub hosts: Option<PathBuf>,
 }
 
 #[derive(Debug, Clone, Args)]
@@ -185,6 +189,7 @@ impl RunArgs {
             foxglove: args.live.foxglove,
             samples: args.samples,
             crash_on_start: args.crash_on_start,
+            hosts: args.hosts,
         }
     }
 }

@@ -26,6 +26,8 @@ pub(super) struct RunConfig {
     pub graph: Graph,
     /// Where the recorder writes, when `--record` asked for one it may write.
     pub record: Option<PathBuf>,
+    /// `--hosts`: the group spread over hosts; `None` runs every node here.
+    pub placement: Option<aisle_link::Placement>,
 }
 
 impl RunConfig {
@@ -76,7 +78,13 @@ impl RunConfig {
         {
             bail!("--crash-on-start: no node `{n}`");
         }
+        let placement = opts
+            .hosts
+            .as_deref()
+            .map(|p| crate::remote::load_placement(p, &graph))
+            .transpose()?;
         Ok(RunConfig {
+            placement,
             record,
             restart,
             kills,

@@ -8,6 +8,7 @@ use super::run_config::RunConfig;
 use super::{GRACE, RunOptions, Session};
 use crate::launch::{LaunchSpec, ProcessGroup};
 use crate::mission::{Mission, NamedBody};
+use crate::remote::{RemoteNodes, SpreadStart};
 use crate::restart::RestartBook;
 use aisle_bus::{Bus, Client, Instance, Publisher, Subscriber};
 use aisle_geometry::{Footprint, Pose2};
@@ -72,7 +73,7 @@ impl Session {
         let heartbeat = bus.subscriber(topics::HEARTBEAT)?;
         let ports = DataPorts::open(&bus)?;
         let mission = new_mission(config);
-        let (group, expected) = launch_group(opts, config, instance, exe)?;
+        let (group, expected) = launch_group(opts, config, instance, exe, &bus)?;
         let now = Instant::now();
         let retained = RetainedState::open(&bus, &config.graph)?;
         let health = NodeHealth {
@@ -152,6 +153,7 @@ fn launch_group(
     config: &RunConfig,
     instance: &Instance,
     exe: PathBuf,
+    bus: &Bus,
 ) -> anyhow::Result<(ProcessGroup, Vec<NodeKind>)> {
     let cfg = &config.mission;
     let start = cfg.start;
@@ -206,21 +208,37 @@ fn launch_group(
     };
     let config_dir = std::fs::canonicalize(&opts.config_dir)
         .with_context(|| format!("config directory {}", opts.config_dir.display()))?;
-    let spec = LaunchSpec {
+    let mut group = ProcessGroup::new(LaunchSpec {
+        external: crate::launch::external_commands(&config.graph),
         exe,
         instance: instance.clone(),
         config_dir,
         extra: Box::new(extra),
-        external: config
-            .graph
-            .external()
-            .filter_map(|n| Some((n.kind(), n.command.clone()?)))
-            .collect(),
         dt_ns,
         controller_every: every,
-    };
-    let mut group = ProcessGroup::new(spec);
-    for kind in expected.iter().copied() {
+    });
+    if let Some(placement) = &config.placement {
+        let spread = SpreadStart {
+            placement,
+            graph: &config.graph,
+            bus,
+            instance,
+            recorder,
+            args: &|k| group.args_of(k),
+            seed: opts.seed,
+            mode: opts.mode as u32,
+            dt_ns,
+            controller_every: every,
+        };
+        let remote = RemoteNodes::start(&spread, &expected)?;
+        group.attach_remote(remote);
+    }
+    let local: Vec<NodeKind> = expected
+        .iter()
+        .copied()
+        .filter(|k| group.is_local(*k))
+        .collect();
+    for kind in local {
         if let Err(e) = group.spawn(kind, false) {
             group.stop(GRACE);
             bail!(e);

@@ -1,0 +1,28 @@
+//! The process group spread over hosts.
+//!
+//! - [`hosts`]: `config/hosts.toml`, which host runs which node and its Zenoh endpoints,
+//!   checked against the graph ([`Placement`]). Without that file every node runs on the
+//!   supervisor's host, exactly as a single-host run, and no Zenoh session is opened.
+//! - [`crossing`]: the topics a placement makes cross hosts (published on one host and
+//!   subscribed on another), and which of them each host must bridge.
+//!
+//! - [`control`]: the supervisor's requests to a host daemon (start, spawn, kill, stop)
+//!   and the ends of a host's nodes, over Zenoh queryables.
+//! - [`bridge`]: the iceoryx2 Zenoh link of one host, bridging exactly those topics.
+//!
+//! Knows the graph's names, the hosts and the link; it does not launch nodes.
+
+pub mod bridge;
+pub mod control;
+pub mod crossing;
+pub mod hosts;
+mod ordered;
+
+pub use bridge::{Bridge, LinkError, zenoh_config};
+pub use control::{
+    ControlClient, ControlServer, HostReply, HostRequest, NodeExit, StartGroup, open_session,
+};
+pub use crossing::{Crossing, crossing_topics};
+pub use hosts::{HostDecl, HostsFile, Placement};
+/// The Zenoh session a host's link and control share.
+pub use zenoh::Session;
