@@ -59,11 +59,7 @@ impl Planner {
             // less room to line up, but the straight move still corrects what the path
             // leaves.
             for fraction in RUN_IN_FRACTIONS {
-                let params = DockParams {
-                    run_in: self.config().dock_run_in * fraction,
-                    clearance: self.config().dock_clearance,
-                    step: self.config().validation_distance,
-                };
+                let params = self.dock_params(fraction);
                 let moves = match site.kind {
                     DockKind::Dock => dock::entries(site, &req.goal, req.footprint, &params),
                     DockKind::Undock => dock::exits(site, &req.start, req.footprint, &params),
@@ -185,11 +181,7 @@ impl Planner {
         map: &GridView,
         should_stop: &mut dyn FnMut() -> bool,
     ) -> Option<DockedPlan> {
-        let params = DockParams {
-            run_in: self.config().dock_run_in,
-            clearance: self.config().dock_clearance,
-            step: self.config().validation_distance,
-        };
+        let params = self.dock_params(1.0);
         let mut best: Option<(f64, Straight, PlanStats)> = None;
         for mv in dock::exits(site, &req.start, req.footprint, &params) {
             if !dock::corridor_clear(site, &mv, req.footprint, &params, map) {
@@ -215,6 +207,15 @@ impl Planner {
         path.extend(mv.poses(params.step).last());
         let split = path.len() - 1;
         Some(joined_plan((path, split), DockKind::Undock, stats))
+    }
+
+    /// The straight moves' layout with `fraction` of the configured run-in.
+    fn dock_params(&self, fraction: f64) -> DockParams {
+        DockParams {
+            run_in: self.config().dock_run_in * fraction,
+            clearance: self.config().dock_clearance,
+            step: self.config().validation_distance,
+        }
     }
 
     fn straight_cost(&self, mv: &Straight) -> f64 {
