@@ -68,7 +68,35 @@ fn unavailable(what: &str) -> Option<PathBuf> {
     None
 }
 
-/// A fresh venv with `pip install ./python numpy` in `dir`; its python.
+/// A copy of `python/` in `dir` without build output: pip builds in the source tree
+/// (`build/`, `*.egg-info`), so two tests installing the checkout at once race there.
+fn sdk_copy(dir: &Path) -> PathBuf {
+    fn copy(from: &Path, to: &Path) {
+        std::fs::create_dir_all(to).unwrap();
+        for entry in std::fs::read_dir(from).unwrap().flatten() {
+            let name = entry.file_name();
+            let name_text = name.to_string_lossy();
+            if name_text == "build"
+                || name_text == "__pycache__"
+                || name_text.ends_with(".egg-info")
+            {
+                continue;
+            }
+            let path = entry.path();
+            if path.is_dir() {
+                copy(&path, &to.join(&name));
+            } else {
+                std::fs::copy(&path, to.join(&name)).unwrap();
+            }
+        }
+    }
+    let to = dir.join("sdk");
+    copy(&checkout().join("python"), &to);
+    to
+}
+
+/// A fresh venv with `pip install ./python numpy` (from a private copy) in `dir`; its
+/// python.
 fn venv(dir: &Path) -> Option<PathBuf> {
     let env = dir.join("venv");
     let made = Command::new("python3")
@@ -89,7 +117,7 @@ fn venv(dir: &Path) -> Option<PathBuf> {
             "--quiet",
             "--disable-pip-version-check",
         ])
-        .arg(checkout().join("python"))
+        .arg(sdk_copy(dir))
         .arg("numpy")
         .stdin(Stdio::null())
         .output()
