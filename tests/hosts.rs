@@ -1,124 +1,23 @@
-//! The process group spread over two hosts (issue 19). The hosts are two Linux network
-//! namespaces joined by a veth pair, each process with a mount namespace of its own in
-//! which /dev/shm and the run directory are private, so shared memory cannot carry what
-//! the Zenoh link must. The test creates them and removes them afterwards, also when it
-//! fails ([`Hosts`] is a guard).
+//! The process group spread over two hosts (issue 19). The hosts are Linux network
+//! namespaces on one bridge, each process with a mount namespace of its own in which
+//! /dev/shm and the run directory are private, so shared memory cannot carry what the
+//! Zenoh link must (`support/netns.rs`). The test creates them and removes them
+//! afterwards, also when it fails.
 //!
 //! Needs root and `ip netns`: without them each test says so on stderr and passes
 //! without running (CI runs as root).
 
 mod support;
 
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::path::PathBuf;
+use std::process::Child;
 use std::time::Duration;
+use support::netns::Hosts;
 use support::*;
-
-/// Why these tests cannot run here, if they cannot.
-fn unavailable() -> Option<String> {
-    // SAFETY: geteuid has no preconditions.
-    if unsafe { libc::geteuid() } != 0 {
-        return Some("not root".into());
-    }
-    match Command::new("ip").args(["netns", "list"]).output() {
-        Ok(o) if o.status.success() => None,
-        Ok(o) => Some(format!(
-            "`ip netns` fails: {}",
-            String::from_utf8_lossy(&o.stderr)
-        )),
-        Err(e) => Some(format!("no `ip` command: {e}")),
-    }
-}
-
-macro_rules! needs_netns {
-    () => {
-        if let Some(why) = unavailable() {
-            eprintln!(
-                "skipping: the hosts are network namespaces, which need root and `ip netns`: {why}"
-            );
-            return;
-        }
-    };
-}
-
-fn ip(args: &[&str]) {
-    let out = Command::new("ip").args(args).output().expect("ip runs");
-    assert!(
-        out.status.success(),
-        "ip {args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
-
-/// Two network namespaces `a` and `b` joined by a veth pair (10.77.0.1 and 10.77.0.2),
-/// removed on drop with everything in them.
-struct Hosts {
-    names: [String; 2],
-}
-
-impl Hosts {
-    const ADDRS: [&'static str; 2] = ["10.77.0.1", "10.77.0.2"];
-
-    fn new() -> Hosts {
-        static COUNT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
-        let k = COUNT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        let id = format!("{}x{k}", std::process::id());
-        let names = [format!("aisle-a{id}"), format!("aisle-b{id}")];
-        let hosts = Hosts { names };
-        let [a, b] = &hosts.names;
-        let (va, vb) = (format!("va{id}"), format!("vb{id}"));
-        ip(&["netns", "add", a]);
-        ip(&["netns", "add", b]);
-        ip(&[
-            "link", "add", &va, "netns", a, "type", "veth", "peer", "name", &vb, "netns", b,
-        ]);
-        for (ns, dev, addr) in [(a, &va, Self::ADDRS[0]), (b, &vb, Self::ADDRS[1])] {
-            ip(&["-n", ns, "addr", "add", &format!("{addr}/24"), "dev", dev]);
-            ip(&["-n", ns, "link", "set", dev, "up"]);
-            ip(&["-n", ns, "link", "set", "lo", "up"]);
-        }
-        hosts
-    }
-
-    /// `aisle args` in host `i` (0: a, 1: b), with private /dev/shm and run directory.
-    fn aisle(&self, i: usize, run_dir: &Path, args: &[&str]) -> Child {
-        let script = format!(
-            "mount -t tmpfs -o mode=1777 tmpfs /dev/shm && mount -t tmpfs -o mode=0700 tmpfs {run} && exec \"$0\" \"$@\"",
-            run = run_dir.display()
-        );
-        Command::new("ip")
-            .args([
-                "netns",
-                "exec",
-                &self.names[i],
-                "unshare",
-                "-m",
-                "--propagation",
-                "private",
-            ])
-            .args(["sh", "-c", &script, aisle()])
-            .args(args)
-            .env("AISLE_RUN_DIR", run_dir)
-            .env("AISLE_LOG", "warn")
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("ip netns exec runs")
-    }
-}
-
-impl Drop for Hosts {
-    fn drop(&mut self) {
-        for n in &self.names {
-            let _ = Command::new("ip").args(["netns", "del", n]).status();
-        }
-    }
-}
 
 /// The acceptance placement: simulator and supervisor on `a`, the pipeline on `b`.
 fn hosts_file(dir: &TestDir) -> PathBuf {
-    let [a, b] = Hosts::ADDRS;
+    let (a, b) = (Hosts::addr(0), Hosts::addr(1));
     let text = format!(
         "[[host]]\nname = \"a\"\nlisten = [\"tcp/{a}:7447\"]\nnodes = [\"supervisor\", \"simulator\"]\n\n\
          [[host]]\nname = \"b\"\nlisten = [\"tcp/{b}:7447\"]\nconnect = [\"tcp/{a}:7447\"]\n\
@@ -148,7 +47,7 @@ struct Spread {
 
 /// The seed mission with the acceptance placement; `b_args` go to `aisle host` on `b`.
 fn spread_run(name: &str, b_args: &[&str]) -> Spread {
-    let hosts = Hosts::new();
+    let hosts = Hosts::new(2);
     let dir = TestDir::new(name);
     // A second short run directory: iceoryx2 limits the length of an instance root.
     let run_b = TestDir::new(&format!("{name}-b"));

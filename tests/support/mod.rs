@@ -4,6 +4,7 @@
 
 #![allow(dead_code)]
 
+pub mod netns;
 pub mod records;
 
 use std::path::{Path, PathBuf};
