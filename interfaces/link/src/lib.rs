@@ -9,6 +9,7 @@
 //! - [`control`]: the supervisor's requests to a host daemon (start, spawn, kill, stop)
 //!   and the ends of a host's nodes, over Zenoh queryables.
 //! - [`bridge`]: the iceoryx2 Zenoh link of one host, bridging exactly those topics.
+//! - [`testing`]: two hosts in one process on the loopback interface (tests, benches).
 //!
 //! Knows the graph's names, the hosts and the link; it does not launch nodes.
 
@@ -17,6 +18,7 @@ pub mod control;
 pub mod crossing;
 pub mod hosts;
 mod ordered;
+pub mod testing;
 
 pub use bridge::{Bridge, LinkError, zenoh_config};
 pub use control::{

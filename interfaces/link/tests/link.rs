@@ -3,84 +3,18 @@
 //! one not bridged does not, and the control plane carries a request, its reply and a
 //! node's end. (The same across real network namespaces: `tests/hosts.rs`.)
 
-use aisle_bus::{Bus, Instance, WaitOutcome};
+use aisle_bus::WaitOutcome;
+use aisle_link::testing::{LoopbackPair, loopback_decls};
 use aisle_link::{
-    Bridge, ControlClient, ControlServer, HostDecl, HostReply, HostRequest, open_session,
-    zenoh_config,
+    ControlClient, ControlServer, HostReply, HostRequest, open_session, zenoh_config,
 };
-use aisle_messages::{TickMode, topics};
+use aisle_messages::topics;
 use std::time::Duration;
-
-/// A free TCP port on the loopback interface (taken from the OS, then released).
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
-/// Host `a` listens, host `b` dials it.
-fn decls() -> (HostDecl, HostDecl) {
-    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
-    let a = HostDecl {
-        name: "a".into(),
-        listen: vec![endpoint.clone()],
-        connect: vec![],
-        nodes: vec![],
-    };
-    let b = HostDecl {
-        name: "b".into(),
-        listen: vec![],
-        connect: vec![endpoint],
-        nodes: vec![],
-    };
-    (a, b)
-}
-
-/// A private instance under a short root in /tmp, removed on drop.
-struct Side {
-    instance: Instance,
-}
-
-impl Side {
-    fn new(tag: &str) -> Side {
-        let prefix = format!("alt{}{tag}_", std::process::id());
-        let root = std::path::PathBuf::from(format!("/tmp/alt-{}{tag}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&root);
-        Side {
-            instance: Instance::new(prefix, root).unwrap(),
-        }
-    }
-}
-
-impl Drop for Side {
-    fn drop(&mut self) {
-        let _ = self.instance.remove();
-        let _ = std::fs::remove_dir_all(&self.instance.root);
-    }
-}
 
 #[test]
 fn a_bridged_topic_crosses_with_its_wake_up_and_no_other_does() {
-    let (da, db) = decls();
-    let (sa, sb) = (Side::new("a"), Side::new("b"));
-    let (bus_a, _info_a) = Bus::announce(&sa.instance, 1, 1, TickMode::Lockstep).unwrap();
-    let (bus_b, _info_b) = Bus::announce(&sb.instance, 1, 1, TickMode::Lockstep).unwrap();
-    let bridged = vec![topics::ROBOT_STATE.name.to_string()];
-    let _held_a = bus_a
-        .hold_service(topics::ROBOT_STATE.name)
-        .unwrap()
-        .unwrap();
-    let _held_b = bus_b
-        .hold_service(topics::ROBOT_STATE.name)
-        .unwrap()
-        .unwrap();
-    let za = open_session("a", zenoh_config(&da, "aisle-test").unwrap()).unwrap();
-    let zb = open_session("b", zenoh_config(&db, "aisle-test").unwrap()).unwrap();
-    let _link_a = Bridge::start("a", &sa.instance, za, bridged.clone(), vec![]).unwrap();
-    let _link_b = Bridge::start("b", &sb.instance, zb, bridged, vec![]).unwrap();
-
+    let pair = LoopbackPair::new("x", &[topics::ROBOT_STATE.name]);
+    let (bus_a, bus_b) = (&pair.a, &pair.b);
     let mut state = bus_a.publisher(topics::ROBOT_STATE).unwrap();
     let mut tick = bus_a.publisher(topics::TICK).unwrap();
     let state_in = bus_b.subscriber(topics::ROBOT_STATE).unwrap();
@@ -116,7 +50,7 @@ fn a_bridged_topic_crosses_with_its_wake_up_and_no_other_does() {
 
 #[test]
 fn a_request_gets_its_reply_and_a_nodes_end_is_heard() {
-    let (da, db) = decls();
+    let (da, db) = loopback_decls();
     let za = open_session("a", zenoh_config(&da, "aisle-test").unwrap()).unwrap();
     let zb = open_session("b", zenoh_config(&db, "aisle-test").unwrap()).unwrap();
     let server = ControlServer::declare(&zb, "b").unwrap();

@@ -1,0 +1,206 @@
+//! An independent check of what crosses between hosts (issue 19): a Python program using
+//! only `eclipse-zenoh` and the generated layouts (`python/examples/zenoh_robot_state.py`),
+//! in a third network namespace that runs none of the group, finds the bridged
+//! robot-state service among the link's offers, subscribes to its key expression and
+//! decodes the poses; every pose it prints is the run's ground truth at that stamp, to
+//! the bit.
+//!
+//! Needs root and `ip netns` (else it skips, saying why) and the Python module `zenoh`
+//! (`pip install eclipse-zenoh==1.10.2`, the Rust zenoh's version): without it the test
+//! skips, unless `AISLE_REQUIRE_PYTHON_SDK=1` (as `.ci/run` sets it, after installing it).
+
+mod support;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Duration;
+use support::netns::Hosts;
+use support::*;
+
+fn checkout() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .canonicalize()
+        .unwrap()
+}
+
+/// Whether `python3` has the `zenoh` module; panics instead of skipping when required.
+fn python_zenoh() -> bool {
+    let ok = Command::new("python3")
+        .args(["-c", "import zenoh"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !ok {
+        let why = "python3 has no `zenoh` module (pip install eclipse-zenoh==1.10.2)";
+        assert!(
+            std::env::var("AISLE_REQUIRE_PYTHON_SDK").as_deref() != Ok("1"),
+            "{why} (AISLE_REQUIRE_PYTHON_SDK=1)"
+        );
+        eprintln!("skipped: {why}");
+    }
+    ok
+}
+
+/// One decoded sample: stamp and pose, as the script printed them.
+struct Seen {
+    stamp_ns: u64,
+    pose: [f64; 3],
+}
+
+/// The script's `tick n stamp_ns s pose x y theta` lines (floats in hex notation).
+fn parse_lines(stdout: &str) -> Vec<Seen> {
+    stdout
+        .lines()
+        .filter(|l| l.starts_with("tick "))
+        .map(|l| {
+            let w: Vec<&str> = l.split_whitespace().collect();
+            assert_eq!(w.len(), 8, "{l}");
+            let f = |s: &str| hexf(s).unwrap_or_else(|| panic!("not a hex float: {s} in {l}"));
+            Seen {
+                stamp_ns: w[3].parse().unwrap(),
+                pose: [f(w[5]), f(w[6]), f(w[7])],
+            }
+        })
+        .collect()
+}
+
+/// Python's `float.hex()` text (`-0x1.8p+1`, `0x0.0p+0`, `inf`) as the f64 it names.
+fn hexf(s: &str) -> Option<f64> {
+    let (neg, s) = s.strip_prefix('-').map_or((false, s), |r| (true, r));
+    let s = s.strip_prefix("0x")?;
+    let (mant, exp) = s.split_once('p')?;
+    let (int, frac) = mant.split_once('.').unwrap_or((mant, ""));
+    let mut bits = u64::from_str_radix(int, 16).ok()? as f64;
+    let mut scale = 1.0 / 16.0;
+    for c in frac.chars() {
+        bits += c.to_digit(16)? as f64 * scale;
+        scale /= 16.0;
+    }
+    let v = bits * 2f64.powi(exp.parse().ok()?);
+    Some(if neg { -v } else { v })
+}
+
+#[test]
+fn hex_floats_parse_exactly() {
+    for v in [
+        0.0f64,
+        1.5,
+        -3.25,
+        0.1,
+        12.345678901234567,
+        -1e-300,
+        7.0e200,
+    ] {
+        let text = Command::new("python3")
+            .args(["-c", &format!("print(float.fromhex(({v:e}).hex()).hex())")])
+            .output();
+        // Without python3 the parser is still checked on a known text.
+        let text = text
+            .ok()
+            .filter(|o| o.status.success())
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string());
+        if let Some(t) = text {
+            assert_eq!(hexf(&t).map(f64::to_bits), Some(v.to_bits()), "{t}");
+        }
+    }
+    assert_eq!(hexf("-0x1.8p+1"), Some(-3.0));
+}
+
+#[test]
+fn a_zenoh_subscriber_on_a_third_host_decodes_the_bridged_robot_state() {
+    needs_netns!();
+    if !python_zenoh() {
+        return;
+    }
+    let hosts = Hosts::new(3);
+    let dir = TestDir::new("hosts-py");
+    let (run_b, run_c) = (TestDir::new("hosts-py-b"), TestDir::new("hosts-py-c"));
+    let (a, b) = (Hosts::addr(0), Hosts::addr(1));
+    let file = dir.path("hosts.toml");
+    std::fs::write(
+        &file,
+        format!(
+            "[[host]]\nname = \"a\"\nlisten = [\"tcp/{a}:7447\"]\nnodes = [\"supervisor\", \"simulator\"]\n\n\
+             [[host]]\nname = \"b\"\nlisten = [\"tcp/{b}:7447\"]\nconnect = [\"tcp/{a}:7447\"]\n\
+             nodes = [\"lidar\", \"mapper\", \"global_planner\", \"teb_controller\"]\n"
+        ),
+    )
+    .unwrap();
+    let script = checkout().join("python/examples/zenoh_robot_state.py");
+    let endpoint = format!("tcp/{a}:7447");
+    let watcher = hosts
+        .command(
+            2,
+            &run_c.run_dir(),
+            "python3",
+            &[
+                script.to_str().unwrap(),
+                "--connect",
+                &endpoint,
+                "--count",
+                "100",
+                "--timeout",
+                "90",
+            ],
+        )
+        .spawn()
+        .unwrap();
+    let (file_s, config) = (file.to_str().unwrap(), config_dir());
+    let config_s = config.to_str().unwrap();
+    let mut daemon = hosts.aisle(
+        1,
+        &run_b.run_dir(),
+        &[
+            "host",
+            "--name",
+            "b",
+            "--hosts",
+            file_s,
+            "--config-dir",
+            config_s,
+        ],
+    );
+    let report = dir.path("report.json");
+    let run = hosts.aisle(
+        0,
+        &dir.run_dir(),
+        &[
+            "run",
+            "--quiet",
+            "--hosts",
+            file_s,
+            "--config-dir",
+            config_s,
+            "--report",
+            report.to_str().unwrap(),
+        ],
+    );
+    let out = run.wait_with_output().unwrap();
+    let seen = watcher.wait_with_output().unwrap();
+    signal_and_reap(&mut daemon, libc::SIGTERM, Duration::from_secs(10));
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&seen.stdout),
+        String::from_utf8_lossy(&seen.stderr),
+    );
+    assert!(seen.status.success(), "watcher: {stdout}{stderr}");
+    let text = std::fs::read_to_string(&report).unwrap_or_else(|_| {
+        panic!("no report: {}", String::from_utf8_lossy(&out.stderr));
+    });
+    let r: aisle_supervisor::report::RunReport = serde_json::from_str(&text).unwrap();
+    assert!(r.success, "{:?}", r.failure);
+    assert!(stdout.starts_with("key aisle/iox2/v1/channel/"), "{stdout}");
+    let lines = parse_lines(&stdout);
+    assert_eq!(lines.len(), 100, "{stdout}");
+    for s in &lines {
+        let t = s.stamp_ns as f64 * 1e-9;
+        let truth = r
+            .driven_path
+            .iter()
+            .find(|p| p[0] == t)
+            .unwrap_or_else(|| panic!("no pose at {t} s in the run"));
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&s.pose), bits(&truth[1..]), "at {t} s");
+    }
+    let moved = lines.windows(2).any(|w| w[0].pose != w[1].pose);
+    assert!(moved, "the decoded robot never moved:\n{stdout}");
+}
