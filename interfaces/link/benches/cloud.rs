@@ -1,30 +1,28 @@
-//! The point cloud across the link: hosts `a` and `b` in one process (two iceoryx2
-//! instances, two Zenoh sessions on the loopback interface, `aisle_link::testing`), the
-//! lidar's `PointCloud` published on `a` with the seed pattern's 31 x 1201 points filled
-//! (447 KB of points; the message is its fixed 1.57 MB capacity, all of which the link
-//! carries), timed until `b`'s subscriber is woken with it. One sample in flight, so
-//! criterion's throughput is the link's for back-to-back clouds.
+//! Messages across the link: hosts `a` and `b` in one process (two iceoryx2 instances,
+//! two Zenoh sessions on the loopback interface, `aisle_link::testing`); a message
+//! published on `a` is timed until `b`'s subscriber is woken with it, one in flight:
+//! - `point_cloud_a_to_b`: the lidar's `PointCloud` with the seed pattern's 31 x 1201
+//!   points filled (447 KB of points; the message is its fixed 1.57 MB capacity, all of
+//!   which the link carries), so criterion's throughput is the link's for back-to-back
+//!   clouds;
+//! - `robot_state_a_to_b`: the 128-byte `RobotState`, the link's latency alone.
 //!
-//! After criterion's own figures the bench prints the per-sample distribution (every
+//! After criterion's own figures each case prints its per-sample distribution (every
 //! timed sample, warm-up included; nearest rank as `aisle_tools::latency`): p50, p99,
-//! max, clouds per second and bytes per second.
+//! max, messages per second and bytes per second.
 
-use aisle_bus::{Stamp, WaitOutcome};
+use aisle_bus::{Stamp, Topic, WaitOutcome};
 use aisle_link::testing::LoopbackPair;
-use aisle_messages::{PointCloud, topics};
+use aisle_messages::{Message, PointCloud, RobotState, topics};
 use aisle_tools::latency::nearest_rank;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 /// The seed lidar pattern (`config/lidar.toml`): rows x columns.
 const ROWS: u32 = 31;
 const COLS: u32 = 1201;
 
-/// Every timed sample's latency, in nanoseconds.
-static SAMPLES: Mutex<Vec<u64>> = Mutex::new(Vec::new());
-
-fn fill(m: &mut PointCloud, k: u64) {
+fn fill_cloud(m: &mut PointCloud, k: u64) {
     m.rows = ROWS;
     m.cols = COLS;
     let n = (ROWS * COLS) as usize;
@@ -34,25 +32,27 @@ fn fill(m: &mut PointCloud, k: u64) {
     }
 }
 
-fn cloud_across_link(c: &mut Criterion) {
-    let pair = LoopbackPair::new("bench", &[topics::POINT_CLOUD.name]);
-    let mut out = pair
-        .a
-        .publisher(topics::POINT_CLOUD)
-        .expect("publisher on a");
-    let inp = pair
-        .b
-        .subscriber(topics::POINT_CLOUD)
-        .expect("subscriber on b");
+fn fill_state(m: &mut RobotState, k: u64) {
+    m.pose.x = k as f64 * 1e-3;
+    m.active_goal_id = k;
+}
+
+/// Times `topic` from `a` to `b` as criterion case `name`, then prints the
+/// distribution.
+fn across<M: Message>(c: &mut Criterion, name: &str, topic: Topic<M>, fill: fn(&mut M, u64)) {
+    let pair = LoopbackPair::new(name, &[topic.name]);
+    let mut out = pair.a.publisher(topic).expect("publisher on a");
+    let inp = pair.b.subscriber(topic).expect("subscriber on b");
     // Until the link has seen both sides a sample may find nobody on the other one.
     let ready = (0..200).any(|_| {
         let seq = out.publish(Stamp::default(), |m| fill(m, 0)).unwrap();
-        inp.wait_for(Duration::from_millis(50), |m| m.header.seq == seq, || {})
+        inp.wait_for(Duration::from_millis(50), |m| m.header().seq == seq, || {})
             .is_ok_and(|(o, _)| o == WaitOutcome::Matched)
     });
-    assert!(ready, "no cloud crossed within 10 s");
+    assert!(ready, "no {name} sample crossed within 10 s");
     // One exchange: publish on a, wait on b for that very sample.
     let mut k = 0u64;
+    let mut samples: Vec<u64> = Vec::new();
     let mut exchange = || -> Duration {
         k += 1;
         let start = Instant::now();
@@ -60,47 +60,77 @@ fn cloud_across_link(c: &mut Criterion) {
             .publish(Stamp::default(), |m| fill(m, k))
             .expect("publish");
         let (outcome, _) = inp
-            .wait_for(Duration::from_secs(2), |m| m.header.seq == seq, || {})
+            .wait_for(Duration::from_secs(2), |m| m.header().seq == seq, || {})
             .expect("receive");
-        assert_eq!(outcome, WaitOutcome::Matched, "cloud {seq} did not cross");
+        assert_eq!(outcome, WaitOutcome::Matched, "{name} {seq} did not cross");
         start.elapsed()
     };
+    let size = std::mem::size_of::<M>();
     let mut g = c.benchmark_group("link");
-    g.throughput(Throughput::Bytes(std::mem::size_of::<PointCloud>() as u64));
+    g.throughput(Throughput::Bytes(size as u64));
     g.sample_size(50);
-    g.bench_function("point_cloud_a_to_b", |b| {
+    g.bench_function(name, |b| {
         b.iter_custom(|iters| {
             let mut total = Duration::ZERO;
-            let mut book = SAMPLES.lock().unwrap();
             for _ in 0..iters {
                 let d = exchange();
-                book.push(d.as_nanos() as u64);
+                samples.push(d.as_nanos() as u64);
                 total += d;
             }
             total
         })
     });
     g.finish();
-    let mut all = SAMPLES.lock().unwrap().clone();
-    if all.is_empty() {
+    if samples.is_empty() {
         return;
     }
-    all.sort_unstable();
+    samples.sort_unstable();
     let ms = |ns: u64| ns as f64 * 1e-6;
-    let mean = all.iter().sum::<u64>() as f64 / all.len() as f64;
-    let size = std::mem::size_of::<PointCloud>() as f64;
+    let mean = samples.iter().sum::<u64>() as f64 / samples.len() as f64;
     println!(
-        "link/point_cloud_a_to_b: {} samples, p50 {:.3} ms, p99 {:.3} ms, max {:.3} ms; \
-         {:.0} clouds/s, {:.0} MB/s of messages ({:.0} MB/s of the seed's points)",
-        all.len(),
-        ms(nearest_rank(&all, 0.5)),
-        ms(nearest_rank(&all, 0.99)),
-        ms(*all.last().unwrap()),
+        "link/{name}: {} samples of {size} B, p50 {:.3} ms, p99 {:.3} ms, max {:.3} ms; \
+         {:.0} messages/s, {:.1} MB/s",
+        samples.len(),
+        ms(nearest_rank(&samples, 0.5)),
+        ms(nearest_rank(&samples, 0.99)),
+        ms(*samples.last().unwrap()),
         1e9 / mean,
-        size / mean * 1e3,
-        (ROWS * COLS * 12) as f64 / mean * 1e3,
+        size as f64 / mean * 1e3,
     );
 }
 
-criterion_group!(benches, cloud_across_link);
+/// CPU time this process has used, seconds.
+fn process_cpu() -> f64 {
+    // Fields 14 and 15 of /proc/self/stat: user and system time in clock ticks.
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let after = stat.rsplit_once(')').map_or("", |(_, r)| r);
+    let f: Vec<f64> = after
+        .split_whitespace()
+        .filter_map(|v| v.parse().ok())
+        .collect();
+    // After the command name: state (not a number), then fields 4.. as numbers.
+    (f.get(10).unwrap_or(&0.0) + f.get(11).unwrap_or(&0.0)) / 100.0
+}
+
+/// What two idle links (one per host) cost: CPU time over 3 s with nothing to carry.
+fn idle_cost() {
+    let pair = LoopbackPair::new("idle", &[topics::ROBOT_STATE.name]);
+    std::thread::sleep(Duration::from_millis(500));
+    let (t0, c0) = (Instant::now(), process_cpu());
+    std::thread::sleep(Duration::from_secs(3));
+    let share = (process_cpu() - c0) / t0.elapsed().as_secs_f64();
+    println!(
+        "link/idle: two idle links use {:.1} % of one core together",
+        100.0 * share
+    );
+    drop(pair);
+}
+
+fn link(c: &mut Criterion) {
+    idle_cost();
+    across(c, "point_cloud_a_to_b", topics::POINT_CLOUD, fill_cloud);
+    across(c, "robot_state_a_to_b", topics::ROBOT_STATE, fill_state);
+}
+
+criterion_group!(benches, link);
 criterion_main!(benches);
