@@ -583,6 +583,7 @@ fn seed_legs_plan_on_the_scene_static_map() {
 }
 
 mod golden;
+mod lazy;
 mod relief;
 
 /// The budget grows with the area the goal can be reached from: a request whose own
