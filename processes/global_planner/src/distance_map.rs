@@ -325,6 +325,28 @@ impl DistanceMap {
         })
     }
 
+    /// The occupancy bits of row `y`, columns `64 t..64 t + 64` (bit x: column
+    /// `64 t + x`), with everything outside the grid occupied.
+    #[inline]
+    pub fn row_word(&self, y: isize, t: isize) -> u64 {
+        if y < 0 || t < 0 || y as usize >= self.height || t as usize >= self.tiles_x {
+            return u64::MAX;
+        }
+        let (y, t) = (y as usize, t as usize);
+        let tile = (y >> TILE_SHIFT) * self.tiles_x + t;
+        let bits = match self.bits[tile].get() {
+            Some(bits) => bits,
+            None => self.fill_bits(tile),
+        };
+        let inside = self.width - t * TILE;
+        let outside = if inside >= TILE {
+            0
+        } else {
+            u64::MAX << inside
+        };
+        bits[y & MASK] | outside
+    }
+
     #[cold]
     #[inline(never)]
     fn fill_bits(&self, t: usize) -> &[u64] {

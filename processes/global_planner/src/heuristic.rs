@@ -21,6 +21,7 @@
 //! flags are kept between requests and dropped where the distance map changed, and only
 //! the cells a request touched are reset. Knows nothing of headings or motions.
 
+use crate::blocked::Disk;
 use crate::distance_map::DistanceMap;
 
 const SIDE: u32 = 5;
@@ -49,6 +50,8 @@ pub(crate) struct GridHeuristic {
     /// (map geometry, inscribed radius bits, factor) that the blocked flags are for,
     /// and the distance map generation they have seen.
     key: Option<([u64; 5], u64, usize)>,
+    /// The occupancy disk for `limit` on this map (`blocked.rs`).
+    disk: Option<Disk>,
     seen_generation: u64,
     /// Per padded cell: [`BLOCKED`], [`UNREACHED`], [`UNKNOWN`] or distance + 1.
     g: Vec<u32>,
@@ -81,13 +84,13 @@ impl GridHeuristic {
         (goal, start): ((f64, f64), (f64, f64)),
         eager: bool,
     ) -> bool {
-        if self.eager_last && !self.g.is_empty() {
-            // After a search over everything reachable, a pass is cheaper than a list.
-            for (g, closed) in self.g.iter_mut().zip(&mut self.closed) {
-                if *g != BLOCKED && *g < UNREACHED {
-                    *g = UNREACHED;
-                }
-                *closed = false;
+        if self.eager_last {
+            // After a search over everything reachable, a pass is cheaper than a list
+            // (and it closed nothing: `closed` is for lazy searches, whose closed cells
+            // are all touched).
+            for g in &mut self.g {
+                let reached = (*g != BLOCKED) & (*g < UNREACHED);
+                *g = if reached { UNREACHED } else { *g };
             }
         }
         for &c in &self.touched {
@@ -167,8 +170,10 @@ impl GridHeuristic {
         let st = self.stride;
         let coarse = Coarse {
             stride: self.stride,
+            width: self.width,
             factor: self.factor,
             limit: self.limit,
+            disk: self.disk.as_ref(),
         };
         let target = self.target;
         let (g, closed) = (&mut self.g[..], &mut self.closed[..]);
@@ -224,8 +229,10 @@ impl GridHeuristic {
     fn is_blocked(&mut self, dm: &DistanceMap, i: usize) -> bool {
         let coarse = Coarse {
             stride: self.stride,
+            width: self.width,
             factor: self.factor,
             limit: self.limit,
+            disk: self.disk.as_ref(),
         };
         match self.g[i] {
             UNKNOWN => coarse.decide(&mut self.g, dm, i),
@@ -254,6 +261,7 @@ impl GridHeuristic {
         self.seen_generation = dm.generation;
         self.factor = f;
         self.limit = r_in - 1e-6;
+        self.disk = Disk::new(dm.resolution, self.limit);
         self.width = dm.width.div_ceil(f);
         self.height = dm.height.div_ceil(f);
         self.stride = self.width + 2;
@@ -321,7 +329,7 @@ struct Open<'a> {
     g: &'a mut [u32],
     buckets: &'a mut [Vec<u64>; RING],
     touched: &'a mut Vec<u32>,
-    coarse: Coarse,
+    coarse: Coarse<'a>,
     dm: &'a DistanceMap,
     target: Option<(usize, usize)>,
 }
@@ -354,16 +362,56 @@ impl Open<'_> {
 
 /// What deciding a coarse cell's blocked flag needs.
 #[derive(Clone, Copy)]
-struct Coarse {
+struct Coarse<'a> {
     stride: usize,
+    /// Coarse cells per row (without the border).
+    width: usize,
     factor: usize,
     limit: f64,
+    /// The occupancy test equal to `limit` (`None`: the distance table's values).
+    disk: Option<&'a Disk>,
 }
 
-impl Coarse {
-    /// Decides whether padded cell `i` is blocked, records it in `g` and returns it.
+impl Coarse<'_> {
+    /// Decides whether padded cell `i` is blocked (and the other undecided cells of its
+    /// row that start in the same 64 map columns), records it in `g` and returns it.
     #[cold]
     fn decide(self, g: &mut [u32], dm: &DistanceMap, i: usize) -> bool {
+        let f = self.factor;
+        let Some(disk) = self.disk.filter(|_| f <= 64) else {
+            return self.decide_by_distance(g, dm, i);
+        };
+        let (cx, cy) = (i % self.stride - 1, i / self.stride - 1);
+        let t = (cx * f) >> 6;
+        let first = (t * 64).div_ceil(f);
+        let last = ((t * 64 + 63) / f).min(self.width - 1);
+        let two_words = (last + 1) * f > (t + 1) * 64;
+        // Bit x: some map cell in column 64 t + x of these rows is free.
+        let mut free = 0u128;
+        for y in cy * f..(cy * f + f).min(dm.height) {
+            let (y, t) = (y as isize, t as isize);
+            free |= u128::from(!disk.blocked_word(dm, y, t));
+            if two_words {
+                free |= u128::from(!disk.blocked_word(dm, y, t + 1)) << 64;
+            }
+        }
+        let row = (cy + 1) * self.stride + 1;
+        for c in first..=last {
+            if g[row + c] == UNKNOWN {
+                let a = c * f - t * 64;
+                let cells = ((1u128 << f) - 1) << a;
+                g[row + c] = if free & cells != 0 {
+                    UNREACHED
+                } else {
+                    BLOCKED
+                };
+            }
+        }
+        g[i] == BLOCKED
+    }
+
+    /// [`Coarse::decide`] for cell `i` alone, from the distance table.
+    fn decide_by_distance(self, g: &mut [u32], dm: &DistanceMap, i: usize) -> bool {
         // For any robot centre q in a map cell c and an occupied cell o (equal squares),
         // the farthest q is from o's square is exactly |c - o|: the far corner of c is
         // half a cell farther, o's near edge half a cell nearer, on each axis. So a centre

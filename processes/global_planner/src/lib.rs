@@ -32,6 +32,7 @@
 //! # Ok(()) }
 //! ```
 
+mod blocked;
 mod collision;
 pub mod config;
 mod dist_tiles;

@@ -1,4 +1,5 @@
 use super::*;
+use crate::tests::stream;
 use aisle_geometry::{CellIndex, GridMap, OCCUPIED_STATIC};
 
 #[test]
@@ -41,16 +42,6 @@ fn matches_brute_force() {
     dm.ensure(&g.view());
     g.set(CellIndex { ix: 0, iy: 0 }, OCCUPIED_STATIC);
     assert!(dm.ensure(&g.view()), "a changed cell is noticed");
-}
-
-/// A xorshift stream (tests only: seeded, so every run sees the same maps).
-fn stream(mut seed: u64) -> impl FnMut(i64) -> i64 {
-    move |n: i64| {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        (seed % n as u64) as i64
-    }
 }
 
 /// Every cell of `dm`, read tile by tile in a shuffled order, against a whole-grid

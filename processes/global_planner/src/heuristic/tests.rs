@@ -38,13 +38,7 @@ fn goes_around_a_wall_and_proves_enclosure() {
 fn lazy_queries_equal_the_whole_search() {
     let mut g = GridMap::new_free(0.0, 0.0, 0.05, 30.0, 20.0).unwrap();
     let (w, h) = (g.view().width as i64, g.view().height as i64);
-    let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
-    let mut next = move |n: i64| {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        (seed % n as u64) as i64
-    };
+    let mut next = crate::tests::stream(0x9e37_79b9_7f4a_7c15);
     // Walls of random length: detours for the distance, pockets it cannot reach.
     for _ in 0..60 {
         let (x0, y0, len, vertical) = (next(w), next(h), 10 + next(120), next(2) == 0);
