@@ -37,34 +37,35 @@ pub(crate) fn vertical(
     stride: usize,
 ) {
     let n = x1 - x0;
-    let mut near = vec![-1isize; n];
+    // Rows as i32 (half the width of isize, for the vector units).
+    let mut near = vec![-1i32; n];
     // Rows farther than `reach` from the tile cannot bring a column under it.
     for y in y0.saturating_sub(reach)..y1 {
         let row = &g.cells[y * g.w + x0..y * g.w + x1];
         for (last, &c) in near.iter_mut().zip(row) {
             if c != FREE {
-                *last = y as isize;
+                *last = y as i32;
             }
         }
         if y >= y0 {
             let o = &mut out[(y - y0) * stride..(y - y0) * stride + n];
             for (v, &last) in o.iter_mut().zip(&near) {
-                *v = (y as isize - last) as u32;
+                *v = (y as i32 - last) as u32;
             }
         }
     }
-    near.fill(g.h as isize);
+    near.fill(g.h as i32);
     for y in (y0..(y1 + reach).min(g.h)).rev() {
         let row = &g.cells[y * g.w + x0..y * g.w + x1];
         for (next, &c) in near.iter_mut().zip(row) {
             if c != FREE {
-                *next = y as isize;
+                *next = y as i32;
             }
         }
         if y < y1 {
             let o = &mut out[(y - y0) * stride..(y - y0) * stride + n];
             for (v, &next) in o.iter_mut().zip(&near) {
-                let d = (*v).min((next - y as isize) as u32);
+                let d = (*v).min((next - y as i32) as u32);
                 *v = if d as usize > reach { FAR } else { d };
             }
         }

@@ -95,6 +95,8 @@ pub(crate) struct DistanceMap {
     pub tiles_computed: Cell<usize>,
     /// Never fill the whole grid at once, whatever its size (tests).
     pub force_lazy: bool,
+    /// Whether the last rebuild filled every tile (a small map).
+    pub filled_whole: bool,
 }
 
 impl DistanceMap {
@@ -203,7 +205,8 @@ impl DistanceMap {
         self.dist.resize_with(n, OnceCell::new);
         self.tiles_computed.set(0);
         self.last_recomputed = w * h;
-        if w * h <= EAGER_CELLS && !self.force_lazy {
+        self.filled_whole = w * h <= EAGER_CELLS && !self.force_lazy;
+        if self.filled_whole {
             let all = dist_tiles::whole_grid(self.grid(), self.resolution, DIST_CAP);
             for (t, slot) in self.dist.iter().enumerate() {
                 let (x0, x1, y0, y1) = self.tile_bounds(t);

@@ -261,7 +261,11 @@ impl GridHeuristic {
         self.seen_generation = dm.generation;
         self.factor = f;
         self.limit = r_in - 1e-6;
-        self.disk = Disk::new(dm.resolution, self.limit);
+        // A small map's distances are all there already: reading them is cheaper than
+        // spreading bits by a large body's disk.
+        self.disk = (!dm.filled_whole)
+            .then(|| Disk::new(dm.resolution, self.limit))
+            .flatten();
         self.width = dm.width.div_ceil(f);
         self.height = dm.height.div_ceil(f);
         self.stride = self.width + 2;
