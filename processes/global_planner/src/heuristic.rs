@@ -131,6 +131,11 @@ impl GridHeuristic {
         true
     }
 
+    /// Whether its blocked cells are for a body of inscribed radius `r_in`.
+    pub fn serves(&self, r_in: f64) -> bool {
+        self.key.is_some_and(|k| k.1 == r_in.to_bits())
+    }
+
     /// Runs the search over everything reachable from the goal; `settled` then counts
     /// those cells.
     pub fn complete(&mut self, dm: &DistanceMap) {

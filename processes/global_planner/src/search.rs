@@ -65,7 +65,11 @@ pub struct Planner {
     cfg: PlannerConfig,
     model: Model,
     dm: DistanceMap,
-    heur: GridHeuristic,
+    /// Two heuristics, so that requests alternating between two bodies (the robot
+    /// alone, carrying a rack) keep the blocked cells of both.
+    heur: [GridHeuristic; 2],
+    /// The one the last request used.
+    heur_last: usize,
     buf: Buffers,
     /// The map with a docking body marked occupied (`docked.rs`), reused.
     pub(crate) dock_scratch: Vec<u8>,
@@ -81,7 +85,8 @@ impl Planner {
             model: Model::new(&cfg),
             cfg,
             dm: DistanceMap::default(),
-            heur: GridHeuristic::default(),
+            heur: Default::default(),
+            heur_last: 0,
             buf: Buffers::default(),
             dock_scratch: Vec::new(),
             lazy_only: false,
@@ -179,7 +184,12 @@ impl Planner {
         // reached from); a large one as far as the queries need.
         let eager = map.width * map.height <= EAGER_CELLS && !self.lazy_only;
         let ends = ((goal.x, goal.y), (start.x, start.y));
-        let heur = &mut self.heur;
+        let k = match self.heur.iter().position(|h| h.serves(radius)) {
+            Some(k) => k,
+            None => 1 - self.heur_last,
+        };
+        self.heur_last = k;
+        let heur = &mut self.heur[k];
         let reached = heur.begin(&self.dm, radius, cfg.heuristic_resolution, ends, eager);
         let h_start = reached.then(|| heur.metres(&self.dm, start.x, start.y));
         stats.heuristic_cells = heur.settled;
@@ -201,7 +211,7 @@ impl Planner {
         };
         search.open_start(start, h_start);
         let outcome = search.run(should_stop);
-        stats.heuristic_cells = self.heur.settled;
+        stats.heuristic_cells = self.heur[k].settled;
         let (last, shot) = outcome?;
 
         let buf = &mut self.buf;
