@@ -184,11 +184,7 @@ impl Planner {
         // reached from); a large one as far as the queries need.
         let eager = map.width * map.height <= EAGER_CELLS && !self.lazy_only;
         let ends = ((goal.x, goal.y), (start.x, start.y));
-        let k = match self.heur.iter().position(|h| h.serves(radius)) {
-            Some(k) => k,
-            None => 1 - self.heur_last,
-        };
-        self.heur_last = k;
+        let k = heuristic_for(&self.heur, &mut self.heur_last, radius);
         let heur = &mut self.heur[k];
         let reached = heur.begin(&self.dm, radius, cfg.heuristic_resolution, ends, eager);
         let h_start = reached.then(|| heur.metres(&self.dm, start.x, start.y));
@@ -269,6 +265,17 @@ fn output_path(
 /// builds are proportional to what it searches, but the planner keeps a copy of the
 /// cells and flags per heuristic cell.
 pub const MAX_MAP_CELLS: u64 = 1 << 25;
+
+/// Which of the two heuristics serves a body of inscribed radius `r_in`: the one that
+/// did, else the one not used `last`.
+fn heuristic_for(heur: &[GridHeuristic; 2], last: &mut usize, r_in: f64) -> usize {
+    let k = match heur.iter().position(|h| h.serves(r_in)) {
+        Some(k) => k,
+        None => 1 - *last,
+    };
+    *last = k;
+    k
+}
 
 fn check_input(req: &PlanRequest, map: &GridView) -> Result<(), InvalidInput> {
     if !req.start.is_finite() {
