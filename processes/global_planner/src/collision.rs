@@ -256,7 +256,7 @@ impl<'a> FootprintChecker<'a> {
     fn clearance(&self, x: f64, y: f64) -> Option<(f64, f64)> {
         let dm = self.dm;
         let (cx, cy) = dm.cell(x, y)?;
-        let d = f64::from(dm.dist[cy * dm.width + cx]);
+        let d = f64::from(dm.dist_at(cx, cy));
         let ccx = dm.origin_x + (cx as f64 + 0.5) * dm.resolution;
         let ccy = dm.origin_y + (cy as f64 + 0.5) * dm.resolution;
         let (ex, ey) = (x - ccx, y - ccy);
@@ -326,7 +326,7 @@ impl<'a> FootprintChecker<'a> {
                     || row >= h
                     || c0 < 0
                     || c1 >= w
-                    || dm.occupied_in_row(row as usize, c0 as usize, c1 as usize) > 0
+                    || dm.occupied_in_row(row as usize, c0 as usize, c1 as usize)
             },
         )
     }

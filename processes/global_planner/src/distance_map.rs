@@ -1,16 +1,21 @@
 //! Per-map lookup tables for fast collision checks: the Euclidean distance from every
 //! cell centre to the nearest occupied cell centre (space outside the grid counts as
-//! occupied), capped at [`DIST_CAP`], and per-row prefix counts of occupied cells.
+//! occupied), capped at [`DIST_CAP`], kept in square tiles of [`TILE`] cells that are
+//! computed when first read (`dist_tiles.rs` has the arithmetic), and the planner's copy
+//! of the cells (for exact footprint scans).
 //!
-//! Built for a map and kept while the map stays the same (the planner keeps a copy of
-//! the cells to notice a change). A map that differs in a few places (the mapper's
-//! detections between two requests) is updated only around them: capped distances
-//! change only within the cap of a changed cell, so the transform runs on that window
-//! (with the obstacles up to the cap beyond it) and the rest is kept. The cap makes the
-//! update exact: the tables after an update are bit for bit those of a rebuild.
-//! Knows nothing of footprints or search.
+//! Nothing here is proportional to the map per request: a tile costs its own cells and
+//! those within the cap around it (read once per column strip, through the cached
+//! vertical pass), and only the tiles a search reads are computed. Maps of at most
+//! [`EAGER_CELLS`] are filled whole on a rebuild (one transform over the grid is cheaper
+//! there than tile by tile with their margins). A map that differs in a few cells (the
+//! mapper's detections between two requests) drops the tiles within the cap of them, to
+//! be computed again when read; every value read is bit for bit that of a whole-grid
+//! transform of the current cells. Knows nothing of footprints or search.
 
+use crate::dist_tiles::{self, Cells, Envelope, FAR};
 use aisle_geometry::{FREE, GridView};
+use std::cell::{Cell, OnceCell, RefCell};
 
 /// Distances are kept up to this many metres; farther is stored as this. Queries
 /// compare them with a body's radius plus its margin (all far below), and the collision
@@ -19,13 +24,27 @@ use aisle_geometry::{FREE, GridView};
 /// of uncapped tables), while a 4 m cap made the warm seed benchmark up to 28 % slower.
 pub(crate) const DIST_CAP: f64 = 8.0;
 
+/// Cells per tile side, as a shift.
+const TILE_SHIFT: usize = 6;
+/// Cells per tile side.
+pub(crate) const TILE: usize = 1 << TILE_SHIFT;
+const MASK: usize = TILE - 1;
+// A row of a tile's occupancy is one u64.
+const _: () = assert!(TILE == 64);
+
+/// Maps of at most this many cells are filled whole on a rebuild.
+pub(crate) const EAGER_CELLS: usize = 1 << 20;
+
+/// Changes remembered for derived tables (`changes_since`).
+const CHANGE_LOG: usize = 64;
+
 /// A window of the grid, in cells: columns `x0..x1`, rows `y0..y1`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-struct Window {
-    x0: usize,
-    y0: usize,
-    x1: usize,
-    y1: usize,
+pub(crate) struct Window {
+    pub x0: usize,
+    pub y0: usize,
+    pub x1: usize,
+    pub y1: usize,
 }
 
 impl Window {
@@ -33,16 +52,18 @@ impl Window {
         (self.x1 - self.x0) * (self.y1 - self.y0)
     }
 
-    /// Grown by `by` cells on every side, clipped to a `w` x `h` grid.
-    fn grown(&self, by: usize, w: usize, h: usize) -> Window {
+    /// Grown by `bx` cells left and right and `by` up and down, clipped to `w` x `h`.
+    fn grown(&self, bx: usize, by: usize, w: usize, h: usize) -> Window {
         Window {
-            x0: self.x0.saturating_sub(by),
+            x0: self.x0.saturating_sub(bx),
             y0: self.y0.saturating_sub(by),
-            x1: (self.x1 + by).min(w),
+            x1: (self.x1 + bx).min(w),
             y1: (self.y1 + by).min(h),
         }
     }
 }
+
+type Tiles<T> = Vec<OnceCell<Box<[T]>>>;
 
 #[derive(Debug, Default)]
 pub(crate) struct DistanceMap {
@@ -52,28 +73,36 @@ pub(crate) struct DistanceMap {
     pub width: usize,
     pub height: usize,
     cells: Vec<u8>,
-    /// Metres from each cell centre to the nearest occupied (or outside) cell centre,
-    /// at most [`DIST_CAP`].
-    pub dist: Vec<f32>,
-    /// `width + 1` entries per row: occupied cells left of each column.
-    pub row_prefix: Vec<u32>,
+    tiles_x: usize,
+    /// The cap in cells, plus one: the farthest cell that can bring a distance under it.
+    reach: usize,
+    /// Per tile: vertical distances of its cells (`dist_tiles::vertical`).
+    vert: Tiles<u32>,
+    /// Per tile: one word per row, a bit per occupied cell (column `x & 63`).
+    bits: Tiles<u64>,
+    /// Per tile: metres from each cell centre to the nearest occupied (or outside) cell
+    /// centre, at most [`DIST_CAP`].
+    dist: Tiles<f32>,
+    envelope: RefCell<Envelope>,
     /// Counts rebuilds and updates, so that tables derived from this one know when to
     /// refresh.
     pub generation: u64,
-    /// Cells the last change recomputed (the whole grid on a rebuild), for diagnostics.
+    /// (generation, window whose distances it changed) of the last updates.
+    changes: Vec<(u64, Window)>,
+    /// Cells the last change invalidated (the whole grid on a rebuild), for diagnostics.
     pub last_recomputed: usize,
-    // Scratch for the transform.
-    scratch_f: Vec<f64>,
-    scratch_d: Vec<f64>,
-    scratch_v: Vec<usize>,
-    scratch_z: Vec<f64>,
-    padded: Vec<f64>,
+    /// Distance tiles computed since the last rebuild, for diagnostics.
+    pub tiles_computed: Cell<usize>,
+    /// Never fill the whole grid at once, whatever its size (tests).
+    pub force_lazy: bool,
+    /// Whether the last rebuild filled every tile (a small map).
+    pub filled_whole: bool,
 }
 
 impl DistanceMap {
-    /// Brings the tables to this map: nothing when they already describe it, an update
-    /// around the changed cells when only cells changed, else a rebuild. Returns true
-    /// when anything changed.
+    /// Brings the tables to this map: nothing when they already describe it, the tiles
+    /// near the changed cells dropped when only cells changed, else a rebuild. Returns
+    /// true when anything changed.
     pub fn ensure(&mut self, map: &GridView) -> bool {
         let same_grid = self.width == map.width
             && self.height == map.height
@@ -88,24 +117,32 @@ impl DistanceMap {
         let Some(changed) = self.changed_cells(map) else {
             return false;
         };
-        let cap = (DIST_CAP / map.resolution).ceil() as usize + 1;
-        let (w, h) = (map.width, map.height);
-        let inner = changed.grown(cap, w, h);
-        let sources = inner.grown(cap, w, h);
-        // A window that large costs about as much as the whole grid.
-        if 2 * sources.area() > w * h {
-            self.rebuild(map);
-            return true;
-        }
         self.generation += 1;
+        let (w, h, r) = (self.width, self.height, self.reach);
         for y in changed.y0..changed.y1 {
             let row = y * w..(y + 1) * w;
             self.cells[row.clone()].copy_from_slice(&map.cells[row]);
-            self.prefix_row(y);
         }
-        self.transform(inner, sources);
-        self.last_recomputed = inner.area();
+        // A vertical distance reads its own column `reach` rows either way; a distance,
+        // the cells within `reach` on both axes.
+        drop_tiles(&mut self.vert, self.tiles_x, changed.grown(0, r, w, h));
+        drop_tiles(&mut self.bits, self.tiles_x, changed);
+        let dists = changed.grown(r, r, w, h);
+        drop_tiles(&mut self.dist, self.tiles_x, dists);
+        if self.changes.len() == CHANGE_LOG {
+            self.changes.remove(0);
+        }
+        self.changes.push((self.generation, dists));
+        self.last_recomputed = dists.area();
         true
+    }
+
+    /// The windows whose distances changed after generation `seen`, oldest first;
+    /// `None` when that is not known (a rebuild since, or too long ago).
+    pub fn changes_since(&self, seen: u64) -> Option<impl Iterator<Item = Window> + '_> {
+        let first = self.changes.first()?.0;
+        (seen + 1 >= first && seen <= self.generation)
+            .then(|| self.changes.iter().filter(move |c| c.0 > seen).map(|c| c.1))
     }
 
     /// The rows and columns where `map` differs from the kept cells, if anywhere.
@@ -148,104 +185,117 @@ impl DistanceMap {
 
     fn rebuild(&mut self, map: &GridView) {
         self.generation += 1;
+        self.changes.clear();
         self.origin_x = map.origin_x;
         self.origin_y = map.origin_y;
         self.resolution = map.resolution;
         self.width = map.width;
         self.height = map.height;
+        self.reach = (DIST_CAP / map.resolution).ceil() as usize + 1;
         self.cells.clear();
         self.cells.extend_from_slice(map.cells);
         let (w, h) = (map.width, map.height);
-        self.row_prefix.clear();
-        self.row_prefix.resize((w + 1) * h, 0);
-        for y in 0..h {
-            self.prefix_row(y);
-        }
+        self.tiles_x = w.div_ceil(TILE);
+        let n = self.tiles_x * h.div_ceil(TILE);
+        self.vert.clear();
+        self.vert.resize_with(n, OnceCell::new);
+        self.bits.clear();
+        self.bits.resize_with(n, OnceCell::new);
         self.dist.clear();
-        self.dist.resize(w * h, 0.0);
-        let all = Window {
-            x0: 0,
-            y0: 0,
-            x1: w,
-            y1: h,
-        };
-        self.transform(all, all);
+        self.dist.resize_with(n, OnceCell::new);
+        self.tiles_computed.set(0);
         self.last_recomputed = w * h;
-    }
-
-    fn prefix_row(&mut self, y: usize) {
-        let w = self.width;
-        let out = &mut self.row_prefix[y * (w + 1)..(y + 1) * (w + 1)];
-        let mut acc = 0u32;
-        out[0] = 0;
-        for (x, &c) in self.cells[y * w..(y + 1) * w].iter().enumerate() {
-            acc += u32::from(c != FREE);
-            out[x + 1] = acc;
-        }
-    }
-
-    /// Recomputes `dist` inside `inner` from the obstacles inside `sources` (which holds
-    /// every cell within the cap of `inner`): the exact squared EDT (Felzenszwalb and
-    /// Huttenlocher) of `sources` with one ring around it, the ring being the grid's own
-    /// cells where there are any and occupied outside the grid.
-    fn transform(&mut self, inner: Window, sources: Window) {
-        let (w, h) = (self.width as isize, self.height as isize);
-        let (pw, ph) = (sources.x1 - sources.x0 + 2, sources.y1 - sources.y0 + 2);
-        // Larger than any real squared distance yet small enough to stay exact.
-        let far = 4.0 * ((pw + ph) * (pw + ph)) as f64;
-        self.padded.clear();
-        self.padded.resize(pw * ph, 0.0);
-        for py in 0..ph {
-            let y = sources.y0 as isize + py as isize - 1;
-            for px in 0..pw {
-                let x = sources.x0 as isize + px as isize - 1;
-                let inside = x >= 0 && y >= 0 && x < w && y < h;
-                let occ = !inside || self.cells[(y * w + x) as usize] != FREE;
-                self.padded[py * pw + px] = if occ { 0.0 } else { far };
-            }
-        }
-        self.transform_padded(pw, ph);
-        let res = self.resolution;
-        for y in inner.y0..inner.y1 {
-            let py = y - sources.y0 + 1;
-            for x in inner.x0..inner.x1 {
-                let d2 = self.padded[py * pw + (x - sources.x0 + 1)];
-                self.dist[y * self.width + x] = (d2.sqrt() * res).min(DIST_CAP) as f32;
+        self.filled_whole = w * h <= EAGER_CELLS && !self.force_lazy;
+        if self.filled_whole {
+            let all = dist_tiles::whole_grid(self.grid(), self.resolution, DIST_CAP);
+            for (t, slot) in self.dist.iter().enumerate() {
+                let (x0, x1, y0, y1) = self.tile_bounds(t);
+                let mut tile = vec![0.0f32; TILE * TILE].into_boxed_slice();
+                for y in y0..y1 {
+                    let o = (y - y0) * TILE;
+                    tile[o..o + x1 - x0].copy_from_slice(&all[y * w + x0..y * w + x1]);
+                }
+                // Freshly emptied above: the cell takes the tile.
+                let _ = slot.set(tile);
             }
         }
     }
 
-    /// The squared EDT of `padded` (`pw` x `ph`), in place: columns, then rows.
-    fn transform_padded(&mut self, pw: usize, ph: usize) {
-        let n = pw.max(ph);
-        self.scratch_f.resize(n, 0.0);
-        self.scratch_d.resize(n, 0.0);
-        self.scratch_v.resize(n, 0);
-        self.scratch_z.resize(n + 1, 0.0);
-        for px in 0..pw {
-            for py in 0..ph {
-                self.scratch_f[py] = self.padded[py * pw + px];
+    fn grid(&self) -> Cells<'_> {
+        Cells {
+            cells: &self.cells,
+            w: self.width,
+            h: self.height,
+        }
+    }
+
+    /// Columns `x0..x1` and rows `y0..y1` of tile `t`.
+    fn tile_bounds(&self, t: usize) -> (usize, usize, usize, usize) {
+        let (tx, ty) = (t % self.tiles_x, t / self.tiles_x);
+        let (x0, y0) = (tx * TILE, ty * TILE);
+        (
+            x0,
+            (x0 + TILE).min(self.width),
+            y0,
+            (y0 + TILE).min(self.height),
+        )
+    }
+
+    /// The capped distance (m) at cell (`cx`, `cy`), which must be inside the grid.
+    #[inline]
+    pub fn dist_at(&self, cx: usize, cy: usize) -> f32 {
+        let t = (cy >> TILE_SHIFT) * self.tiles_x + (cx >> TILE_SHIFT);
+        let tile = match self.dist[t].get() {
+            Some(tile) => tile,
+            None => self.fill_dist(t),
+        };
+        tile[((cy & MASK) << TILE_SHIFT) | (cx & MASK)]
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn fill_dist(&self, t: usize) -> &[f32] {
+        let (x0, x1, y0, y1) = self.tile_bounds(t);
+        let r = self.reach;
+        let (cx0, cx1) = (x0.saturating_sub(r), (x1 + r).min(self.width));
+        let ty = t / self.tiles_x;
+        let vert: Vec<&[u32]> = (cx0 >> TILE_SHIFT..=(cx1 - 1) >> TILE_SHIFT)
+            .map(|tx| self.vert_tile(ty * self.tiles_x + tx))
+            .collect();
+        let first_tile = cx0 >> TILE_SHIFT;
+        let mut tile = vec![0.0f32; TILE * TILE].into_boxed_slice();
+        let mut env = self.envelope.borrow_mut();
+        for y in y0..y1 {
+            let row = (y - y0) << TILE_SHIFT;
+            env.clear();
+            if cx0 == 0 {
+                env.push(-1, 0);
             }
-            edt_1d(
-                &self.scratch_f[..ph],
-                &mut self.scratch_d[..ph],
-                &mut self.scratch_v,
-                &mut self.scratch_z,
+            for x in cx0..cx1 {
+                let v = vert[(x >> TILE_SHIFT) - first_tile];
+                env.push(x as isize, v[row | (x & MASK)]);
+            }
+            if cx1 == self.width {
+                env.push(self.width as isize, 0);
+            }
+            env.eval(x0, self.resolution, DIST_CAP, &mut tile[row..row + x1 - x0]);
+        }
+        self.tiles_computed.set(self.tiles_computed.get() + 1);
+        self.dist[t].get_or_init(|| tile)
+    }
+
+    fn vert_tile(&self, t: usize) -> &[u32] {
+        self.vert[t].get_or_init(|| {
+            let mut tile = vec![FAR; TILE * TILE].into_boxed_slice();
+            dist_tiles::vertical(
+                self.grid(),
+                self.reach,
+                self.tile_bounds(t),
+                &mut tile,
+                TILE,
             );
-            for py in 0..ph {
-                self.padded[py * pw + px] = self.scratch_d[py];
-            }
-        }
-        for py in 0..ph {
-            self.scratch_f[..pw].copy_from_slice(&self.padded[py * pw..(py + 1) * pw]);
-            edt_1d(
-                &self.scratch_f[..pw],
-                &mut self.scratch_d[..pw],
-                &mut self.scratch_v,
-                &mut self.scratch_z,
-            );
-            self.padded[py * pw..(py + 1) * pw].copy_from_slice(&self.scratch_d[..pw]);
-        }
+            tile
+        })
     }
 
     /// The cell holding a world point, if inside the grid.
@@ -262,141 +312,70 @@ impl DistanceMap {
         }
     }
 
-    /// Occupied cells in columns `c0..=c1` of `row` (both inside the grid).
+    /// Whether any cell in columns `c0..=c1` of `row` (both inside the grid) is occupied.
     #[inline]
-    pub fn occupied_in_row(&self, row: usize, c0: usize, c1: usize) -> u32 {
-        let base = row * (self.width + 1);
-        self.row_prefix[base + c1 + 1] - self.row_prefix[base + c0]
+    pub fn occupied_in_row(&self, row: usize, c0: usize, c1: usize) -> bool {
+        let (r, first, last) = (row & MASK, c0 >> TILE_SHIFT, c1 >> TILE_SHIFT);
+        let base = (row >> TILE_SHIFT) * self.tiles_x;
+        (first..=last).any(|tx| {
+            let tile = match self.bits[base + tx].get() {
+                Some(tile) => tile,
+                None => self.fill_bits(base + tx),
+            };
+            let lo = if tx == first { c0 & MASK } else { 0 };
+            let hi = if tx == last { c1 & MASK } else { MASK };
+            tile[r] & (u64::MAX >> (MASK - hi)) & (u64::MAX << lo) != 0
+        })
+    }
+
+    /// The occupancy bits of row `y`, columns `64 t..64 t + 64` (bit x: column
+    /// `64 t + x`), with everything outside the grid occupied.
+    #[inline]
+    pub fn row_word(&self, y: isize, t: isize) -> u64 {
+        if y < 0 || t < 0 || y as usize >= self.height || t as usize >= self.tiles_x {
+            return u64::MAX;
+        }
+        let (y, t) = (y as usize, t as usize);
+        let tile = (y >> TILE_SHIFT) * self.tiles_x + t;
+        let bits = match self.bits[tile].get() {
+            Some(bits) => bits,
+            None => self.fill_bits(tile),
+        };
+        let inside = self.width - t * TILE;
+        let outside = if inside >= TILE {
+            0
+        } else {
+            u64::MAX << inside
+        };
+        bits[y & MASK] | outside
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn fill_bits(&self, t: usize) -> &[u64] {
+        let (x0, x1, y0, y1) = self.tile_bounds(t);
+        let mut tile = vec![0u64; TILE].into_boxed_slice();
+        for (y, word) in (y0..y1).zip(tile.iter_mut()) {
+            let row = &self.cells[y * self.width + x0..y * self.width + x1];
+            for (x, &c) in row.iter().enumerate() {
+                *word |= u64::from(c != FREE) << x;
+            }
+        }
+        self.bits[t].get_or_init(|| tile)
     }
 }
 
-/// 1D squared distance transform of sampled function `f` into `d`.
-fn edt_1d(f: &[f64], d: &mut [f64], v: &mut [usize], z: &mut [f64]) {
-    let n = f.len();
-    let mut k = 0usize;
-    v[0] = 0;
-    z[0] = f64::NEG_INFINITY;
-    z[1] = f64::INFINITY;
-    let inter = |q: usize, p: usize| -> f64 {
-        let (qf, pf) = (q as f64, p as f64);
-        ((f[q] + qf * qf) - (f[p] + pf * pf)) / (2.0 * (qf - pf))
-    };
-    for q in 1..n {
-        let mut s = inter(q, v[k]);
-        while s <= z[k] {
-            k -= 1;
-            s = inter(q, v[k]);
-        }
-        k += 1;
-        v[k] = q;
-        z[k] = s;
-        z[k + 1] = f64::INFINITY;
+/// Empties the tiles of `tiles` (`tiles_x` per row) that meet window `win`.
+fn drop_tiles<T>(tiles: &mut Tiles<T>, tiles_x: usize, win: Window) {
+    if win.area() == 0 {
+        return;
     }
-    k = 0;
-    for (q, dq) in d.iter_mut().enumerate().take(n) {
-        while z[k + 1] < q as f64 {
-            k += 1;
+    for ty in win.y0 >> TILE_SHIFT..=(win.y1 - 1) >> TILE_SHIFT {
+        for tx in win.x0 >> TILE_SHIFT..=(win.x1 - 1) >> TILE_SHIFT {
+            tiles[ty * tiles_x + tx].take();
         }
-        let dx = q as f64 - v[k] as f64;
-        *dq = dx * dx + f[v[k]];
     }
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use aisle_geometry::{CellIndex, GridMap, OCCUPIED_STATIC};
-
-    #[test]
-    fn matches_brute_force() {
-        let mut g = GridMap::new_free(0.0, 0.0, 0.1, 2.3, 1.7).unwrap();
-        for (ix, iy) in [(3, 4), (10, 2), (11, 2), (20, 15), (7, 9)] {
-            g.set(CellIndex { ix, iy }, OCCUPIED_STATIC);
-        }
-        let v = g.view();
-        let mut dm = DistanceMap::default();
-        assert!(dm.ensure(&v));
-        assert!(!dm.ensure(&v), "same map is not rebuilt");
-        for iy in 0..v.height as i64 {
-            for ix in 0..v.width as i64 {
-                let mut best = f64::INFINITY;
-                for oy in -1..=v.height as i64 {
-                    for ox in -1..=v.width as i64 {
-                        let c = CellIndex { ix: ox, iy: oy };
-                        if v.occupied_or_outside(c) {
-                            best = best.min(((ox - ix) as f64).hypot((oy - iy) as f64));
-                        }
-                    }
-                }
-                let got = dm.dist[iy as usize * v.width + ix as usize] as f64;
-                assert!(
-                    (got - (best * 0.1).min(DIST_CAP)).abs() < 1e-5,
-                    "({ix},{iy}) {got} vs {best}"
-                );
-            }
-        }
-        assert_eq!(dm.occupied_in_row(2, 0, v.width - 1), 2);
-        assert_eq!(dm.occupied_in_row(2, 11, 11), 1);
-        assert_eq!(dm.occupied_in_row(2, 12, 22), 0);
-        g.set(CellIndex { ix: 0, iy: 0 }, OCCUPIED_STATIC);
-        assert!(dm.ensure(&g.view()), "a changed cell forces a rebuild");
-    }
-
-    /// Tables after a sequence of updates are bit for bit those of a fresh build.
-    #[test]
-    fn updates_equal_a_rebuild_bit_for_bit() {
-        // 80 x 50 m at 10 cells/m: windows of the cap stay under half the grid.
-        let mut g = GridMap::new_free(-3.0, 2.0, 0.1, 80.0, 50.0).unwrap();
-        let (w, h) = (g.view().width as i64, g.view().height as i64);
-        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
-        let mut next = move |n: i64| {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed % n as u64) as i64
-        };
-        for _ in 0..400 {
-            let (ix, iy) = (next(w), next(h));
-            g.set(CellIndex { ix, iy }, OCCUPIED_STATIC);
-        }
-        let mut kept = DistanceMap::default();
-        kept.ensure(&g.view());
-        let full_cells = kept.last_recomputed;
-        let mut updates = 0;
-        for round in 0..12 {
-            // A small cluster appears (or goes) somewhere, corners and edges included.
-            let (cx, cy) = match round {
-                0 => (0, 0),
-                1 => (w - 1, h - 1),
-                2 => (0, h / 2),
-                _ => (next(w), next(h)),
-            };
-            let value = if round % 3 == 2 {
-                FREE
-            } else {
-                OCCUPIED_STATIC
-            };
-            for k in 0..6 {
-                let c = CellIndex {
-                    ix: (cx + k % 3).min(w - 1),
-                    iy: (cy + k / 3).min(h - 1),
-                };
-                g.set(c, value);
-            }
-            let v = g.view();
-            kept.ensure(&v);
-            updates += usize::from(kept.last_recomputed < full_cells);
-            let mut fresh = DistanceMap::default();
-            fresh.ensure(&v);
-            assert!(
-                kept.dist
-                    .iter()
-                    .zip(&fresh.dist)
-                    .all(|(a, b)| a.to_bits() == b.to_bits()),
-                "round {round}: distances differ from a rebuild"
-            );
-            assert_eq!(kept.row_prefix, fresh.row_prefix, "round {round}");
-        }
-        assert!(updates >= 10, "only {updates} of 12 changes were updates");
-    }
-}
+mod tests;

@@ -39,6 +39,12 @@ pub enum InvalidInput {
     Margin,
     #[error("the map's resolution, origin or cell count is inconsistent")]
     Map,
+    #[error("the map has more than MAX_MAP_CELLS (2^25) cells")]
+    MapTooLarge,
+    #[error(
+        "the map has more search states (cells of search_resolution x heading bins) than 32-bit numbers hold"
+    )]
+    TooManyStates,
     #[error("the expansion budget is zero")]
     ZeroBudget,
 }

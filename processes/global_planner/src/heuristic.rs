@@ -1,18 +1,37 @@
 //! The obstacle-aware part of the search heuristic: the 8-connected grid distance from
-//! the goal to every cell, on a grid that may be coarser than the map.
+//! the goal to a cell, on a grid that may be coarser than the map, found by a backward
+//! search from the goal that runs only as far as the queries need.
 //!
 //! A coarse cell is blocked only when every map cell in it is certainly blocked for the
 //! robot's centre (an occupied cell's square reaches into the inscribed circle of any
-//! pose there), so a free continuous path always maps to a connected chain of unblocked cells:
-//! "unreached from the goal" proves that no path exists. Distances use a bucket queue
-//! (Dial's algorithm) with integer steps 5 (side) and 7 (diagonal), which slightly
-//! underestimates the diagonal. Knows nothing of headings or motions.
+//! pose there), so a free continuous path always maps to a connected chain of unblocked
+//! cells: "unreached from the goal" proves that no path exists. Steps cost 5 (side) and
+//! 7 (diagonal), which slightly underestimates the diagonal: the distance is admissible
+//! for the search (never above the length of a real path, in those units).
+//!
+//! The backward search is an A* from the goal towards the request's start (octile
+//! distance in the same units, consistent), in buckets of equal f (Nature of Dial's
+//! algorithm: f grows by at most 14 per step). A consistent heuristic makes every closed
+//! cell's distance exact, so a query returns the same value as a search over the whole
+//! map: when its cell is not closed yet, the search resumes until it is (or until the
+//! queue runs dry, which proves the cell unreachable). Small maps are searched whole at
+//! once (`eager`, plain Dijkstra), which also counts the cells the goal can be reached
+//! from. One array holds, per cell, blocked, not decided yet, or the distance of this
+//! request (untouched: unreached), so that a neighbour costs one comparison; blocked
+//! flags are kept between requests and dropped where the distance map changed, and only
+//! the cells a request touched are reset. Knows nothing of headings or motions.
 
+use crate::blocked::Disk;
 use crate::distance_map::DistanceMap;
 
 const SIDE: u32 = 5;
 const DIAG: u32 = 7;
-const UNREACHED: u32 = u32::MAX;
+const RING: usize = 16;
+/// Values of `g` besides a distance plus one: blocked (below any distance, so a
+/// neighbour test skips it), free but not reached in this request, and not decided.
+const BLOCKED: u32 = 0;
+const UNREACHED: u32 = u32::MAX - 1;
+const UNKNOWN: u32 = u32::MAX;
 
 #[derive(Debug, Default)]
 pub(crate) struct GridHeuristic {
@@ -25,122 +44,266 @@ pub(crate) struct GridHeuristic {
     origin_x: f64,
     origin_y: f64,
     cell: f64,
-    blocked: Vec<bool>,
-    /// Start values of `dist`: unreached, or 0 for blocked cells so that the search's
-    /// "shorter than known" test rejects them without a second lookup.
-    dist_init: Vec<u32>,
-    /// (distance map generation, inscribed radius bits, factor) that `blocked` is for:
-    /// it depends on the map and the body only, not on the goal.
-    blocked_key: Option<(u64, u64, usize)>,
-    dist: Vec<u32>,
-    buckets: [Vec<u32>; (DIAG + 1) as usize],
-    /// Cells settled by the last computation.
+    /// Map cells per coarse cell side.
+    factor: usize,
+    limit: f64,
+    /// (map geometry, inscribed radius bits, factor) that the blocked flags are for,
+    /// and the distance map generation they have seen.
+    key: Option<([u64; 5], u64, usize)>,
+    /// The occupancy disk for `limit` on this map (`blocked.rs`).
+    disk: Option<Disk>,
+    seen_generation: u64,
+    /// Per padded cell: [`BLOCKED`], [`UNREACHED`], [`UNKNOWN`] or distance + 1.
+    g: Vec<u32>,
+    closed: Vec<bool>,
+    /// Cells given a distance in this request.
+    touched: Vec<u32>,
+    /// Open entries (cell << 32 | g) by f modulo the ring.
+    buckets: [Vec<u64>; RING],
+    level: u32,
+    pending: usize,
+    /// Coarse cell of the start (the A* target); `None`: Dijkstra.
+    target: Option<(usize, usize)>,
+    /// Whether the last request searched everything reachable (its cells are reset by
+    /// a pass over the grid, not from `touched`).
+    eager_last: bool,
+    /// Cells closed in this request.
     pub settled: u32,
 }
 
 impl GridHeuristic {
-    /// Computes distances from `goal` for a robot whose inscribed radius (margin
-    /// included) is `r_in`, on cells of about `cell_size` metres (a whole multiple of the
-    /// map resolution). Returns false when the goal's own cell is blocked.
-    pub fn compute(
+    /// Starts the search from `goal` for a robot whose inscribed radius (margin included)
+    /// is `r_in`, on cells of about `cell_size` metres (a whole multiple of the map
+    /// resolution), aimed at `start`; `eager` runs it over everything reachable at once.
+    /// Returns false when the goal's own cell is blocked or off the grid.
+    pub fn begin(
         &mut self,
         dm: &DistanceMap,
         r_in: f64,
         cell_size: f64,
-        goal: (f64, f64),
+        (goal, start): ((f64, f64), (f64, f64)),
+        eager: bool,
     ) -> bool {
+        if self.eager_last {
+            // After a search over everything reachable, a pass is cheaper than a list
+            // (and it closed nothing: `closed` is for lazy searches, whose closed cells
+            // are all touched).
+            for g in &mut self.g {
+                let reached = (*g != BLOCKED) & (*g < UNREACHED);
+                *g = if reached { UNREACHED } else { *g };
+            }
+        }
+        for &c in &self.touched {
+            self.g[c as usize] = UNREACHED;
+            self.closed[c as usize] = false;
+        }
+        self.touched.clear();
         let f = ((cell_size / dm.resolution).round() as usize).max(1);
-        let key = (dm.generation, r_in.to_bits(), f);
-        if self.blocked_key != Some(key) {
-            self.build_blocked(dm, r_in, f);
-            self.blocked_key = Some(key);
-        }
-        self.dist.clear();
-        self.dist.extend_from_slice(&self.dist_init);
-        self.settled = 0;
-        let Some(g) = self.index_of(goal.0, goal.1) else {
-            return false;
-        };
-        if self.blocked[g] {
-            return false;
-        }
+        self.refresh_blocked(dm, r_in, f);
         for b in &mut self.buckets {
             b.clear();
         }
-        self.dist[g] = 0;
-        self.buckets[0].push(g as u32);
-        let mut pending = 1usize;
-        let mut level = 0u32;
-        let st = self.stride as isize;
-        let steps: [(isize, u32); 8] = [
-            (1, SIDE),
-            (-1, SIDE),
-            (st, SIDE),
-            (-st, SIDE),
-            (st + 1, DIAG),
-            (st - 1, DIAG),
-            (-st + 1, DIAG),
-            (-st - 1, DIAG),
-        ];
-        let dist = &mut self.dist;
-        let buckets = &mut self.buckets;
-        let mut settled = 0u32;
-        while pending > 0 {
-            let slot = (level % (DIAG + 1)) as usize;
-            while let Some(c) = buckets[slot].pop() {
+        (self.settled, self.level, self.pending) = (0, 0, 0);
+        self.eager_last = eager;
+        self.target = (!eager).then(|| {
+            let clamp = |v: f64, n: usize| (v.max(0.0) as usize).min(n - 1);
+            (
+                clamp((start.0 - self.origin_x) / self.cell, self.width),
+                clamp((start.1 - self.origin_y) / self.cell, self.height),
+            )
+        });
+        let Some(gi) = self.index_of(goal.0, goal.1) else {
+            return false;
+        };
+        if self.is_blocked(dm, gi) {
+            return false;
+        }
+        self.g[gi] = 1;
+        if !eager {
+            self.touched.push(gi as u32);
+        }
+        self.level = 1 + self.h(gi);
+        self.buckets[self.level as usize % RING].push(((gi as u64) << 32) | 1);
+        self.pending = 1;
+        if eager {
+            self.run::<false>(dm, None);
+        }
+        true
+    }
+
+    /// Whether its blocked cells are for a body of inscribed radius `r_in`.
+    pub fn serves(&self, r_in: f64) -> bool {
+        self.key.is_some_and(|k| k.1 == r_in.to_bits())
+    }
+
+    /// Runs the search over everything reachable from the goal; `settled` then counts
+    /// those cells.
+    pub fn complete(&mut self, dm: &DistanceMap) {
+        if !self.eager_last {
+            self.run::<true>(dm, None);
+        }
+    }
+
+    /// Grid distance in metres from the goal, or `None` when the goal cannot be reached.
+    #[inline]
+    pub fn metres(&mut self, dm: &DistanceMap, x: f64, y: f64) -> Option<f64> {
+        let i = self.index_of(x, y)?;
+        let g = self.g[i];
+        // After a search over everything, every cell reached is closed.
+        let closed = if self.eager_last {
+            g != BLOCKED && g < UNREACHED
+        } else {
+            self.closed[i]
+        };
+        if !closed && (self.eager_last || self.is_blocked(dm, i) || !self.run::<true>(dm, Some(i)))
+        {
+            return None;
+        }
+        Some(f64::from(self.g[i] - 1) * self.cell / f64::from(SIDE))
+    }
+
+    /// Octile distance (in steps of 5 and 7) from padded cell `i` to the target.
+    #[inline]
+    fn h(&self, i: usize) -> u32 {
+        octile(self.target, self.stride, i)
+    }
+
+    /// Expands cells in order of f until `until` is closed (true) or nothing is left
+    /// (false). `LAZY`: towards the target, noting closed and touched cells (else a
+    /// plain Dijkstra over everything, reset by a pass).
+    fn run<const LAZY: bool>(&mut self, dm: &DistanceMap, until: Option<usize>) -> bool {
+        let st = self.stride;
+        let coarse = Coarse {
+            stride: self.stride,
+            width: self.width,
+            factor: self.factor,
+            limit: self.limit,
+            disk: self.disk.as_ref(),
+        };
+        let target = self.target;
+        let (g, closed) = (&mut self.g[..], &mut self.closed[..]);
+        let (buckets, touched) = (&mut self.buckets, &mut self.touched);
+        let (mut level, mut pending, mut settled) = (self.level, self.pending, self.settled);
+        let mut found = false;
+        let mut open = Open {
+            g,
+            buckets,
+            touched,
+            coarse,
+            dm,
+            target,
+        };
+        'levels: while pending > 0 {
+            let slot = level as usize % RING;
+            while let Some(entry) = open.buckets[slot].pop() {
                 pending -= 1;
-                if dist[c as usize] != level {
+                let (c, gc) = ((entry >> 32) as usize, entry as u32);
+                // Superseded by a shorter distance: stale. (A closed cell is never
+                // queued again: its distance is the shortest.)
+                if open.g[c] != gc {
                     continue;
                 }
+                if LAZY {
+                    closed[c] = true;
+                }
                 settled += 1;
-                for (off, cost) in steps {
-                    // Settled cells are never on the border, so every neighbour exists;
-                    // blocked ones hold 0 and are never improved.
-                    let ni = (c as isize + off) as usize;
-                    let nd = level + cost;
-                    if nd < dist[ni] {
-                        dist[ni] = nd;
-                        buckets[(nd % (DIAG + 1)) as usize].push(ni as u32);
-                        pending += 1;
-                    }
+                // Closed cells are never on the border, so every neighbour exists;
+                // border cells are blocked.
+                let (side, diag) = (gc + SIDE, gc + DIAG);
+                pending += open.relax::<LAZY>(c + 1, side)
+                    + open.relax::<LAZY>(c - 1, side)
+                    + open.relax::<LAZY>(c + st, side)
+                    + open.relax::<LAZY>(c - st, side)
+                    + open.relax::<LAZY>(c + st + 1, diag)
+                    + open.relax::<LAZY>(c + st - 1, diag)
+                    + open.relax::<LAZY>(c - st + 1, diag)
+                    + open.relax::<LAZY>(c - st - 1, diag);
+                if LAZY && until == Some(c) {
+                    found = true;
+                    break 'levels;
                 }
             }
             level += 1;
         }
-        self.settled = settled;
-        true
+        (self.level, self.pending, self.settled) = (level, pending, settled);
+        found
     }
 
-    fn build_blocked(&mut self, dm: &DistanceMap, r_in: f64, f: usize) {
+    /// Whether padded cell `i` is blocked, deciding it from the distance map if not known.
+    #[inline]
+    fn is_blocked(&mut self, dm: &DistanceMap, i: usize) -> bool {
+        let coarse = Coarse {
+            stride: self.stride,
+            width: self.width,
+            factor: self.factor,
+            limit: self.limit,
+            disk: self.disk.as_ref(),
+        };
+        match self.g[i] {
+            UNKNOWN => coarse.decide(&mut self.g, dm, i),
+            v => v == BLOCKED,
+        }
+    }
+
+    /// Keeps the blocked flags that still hold for this map, body and grid.
+    fn refresh_blocked(&mut self, dm: &DistanceMap, r_in: f64, f: usize) {
+        let geometry = [
+            dm.width as u64,
+            dm.height as u64,
+            dm.origin_x.to_bits(),
+            dm.origin_y.to_bits(),
+            dm.resolution.to_bits(),
+        ];
+        let key = (geometry, r_in.to_bits(), f);
+        if self.key == Some(key) {
+            if self.seen_generation != dm.generation {
+                self.drop_changed(dm);
+            }
+            self.seen_generation = dm.generation;
+            return;
+        }
+        self.key = Some(key);
+        self.seen_generation = dm.generation;
+        self.factor = f;
+        self.limit = r_in - 1e-6;
+        // A small map's distances are all there already: reading them is cheaper than
+        // spreading bits by a large body's disk.
+        self.disk = (!dm.filled_whole)
+            .then(|| Disk::new(dm.resolution, self.limit))
+            .flatten();
         self.width = dm.width.div_ceil(f);
         self.height = dm.height.div_ceil(f);
         self.stride = self.width + 2;
         self.origin_x = dm.origin_x;
         self.origin_y = dm.origin_y;
         self.cell = dm.resolution * f as f64;
-        self.blocked.clear();
-        self.blocked.resize(self.stride * (self.height + 2), true);
-        // For any robot centre q in a map cell c and an occupied cell o (equal squares),
-        // the farthest q is from o's square is exactly |c - o|: the far corner of c is
-        // half a cell farther, o's near edge half a cell nearer, on each axis. So a centre
-        // distance under r_in puts o's square inside the inscribed circle of every pose
-        // in c: c is blocked for sure. (Subtracting half a diagonal here, as before,
-        // left narrow holes in a detected wall open to the heuristic that the body
-        // cannot pass, and the search flooded the space before them.) The 1e-6 absorbs
-        // the f32 rounding of the stored distances.
-        let limit = r_in - 1e-6;
-        for y in 0..dm.height {
-            let row = &dm.dist[y * dm.width..(y + 1) * dm.width];
-            let base = (y / f + 1) * self.stride + 1;
-            for (x, &d) in row.iter().enumerate() {
-                if f64::from(d) >= limit {
-                    self.blocked[base + x / f] = false;
-                }
-            }
+        let n = self.stride * (self.height + 2);
+        self.g.clear();
+        self.g.resize(n, BLOCKED);
+        self.forget(0, self.width, 0, self.height);
+        self.closed.clear();
+        self.closed.resize(n, false);
+    }
+
+    /// Marks coarse columns `x0..x1`, rows `y0..y1` not decided.
+    fn forget(&mut self, x0: usize, x1: usize, y0: usize, y1: usize) {
+        for y in y0..y1 {
+            let row = (y + 1) * self.stride + 1;
+            self.g[row + x0..row + x1].fill(UNKNOWN);
         }
-        self.dist_init.clear();
-        self.dist_init
-            .extend(self.blocked.iter().map(|&b| if b { 0 } else { UNREACHED }));
+    }
+
+    /// Forgets the blocked flags of the coarse cells whose map cells changed distance.
+    fn drop_changed(&mut self, dm: &DistanceMap) {
+        let f = self.factor;
+        let Some(changes) = dm.changes_since(self.seen_generation) else {
+            self.forget(0, self.width, 0, self.height);
+            return;
+        };
+        let windows: Vec<_> = changes.collect();
+        for w in windows {
+            self.forget(w.x0 / f, w.x1.div_ceil(f), w.y0 / f, w.y1.div_ceil(f));
+        }
     }
 
     /// Padded index of the coarse cell holding (x, y), if inside the grid.
@@ -155,43 +318,126 @@ impl GridHeuristic {
             None
         }
     }
+}
 
-    /// Grid distance in metres from the goal, or `None` when the goal cannot be reached.
-    #[inline]
-    pub fn metres(&self, x: f64, y: f64) -> Option<f64> {
-        let i = self.index_of(x, y)?;
-        let d = self.dist[i];
-        (d != UNREACHED && !self.blocked[i]).then(|| f64::from(d) * self.cell / f64::from(SIDE))
+/// Octile distance (in steps of 5 and 7) from padded cell `i` (row stride `stride`) to
+/// `target`; 0 without one.
+#[inline]
+fn octile(target: Option<(usize, usize)>, stride: usize, i: usize) -> u32 {
+    let Some((tx, ty)) = target else {
+        return 0;
+    };
+    let y = i / stride;
+    let x = i - y * stride;
+    let (dx, dy) = ((x - 1).abs_diff(tx) as u32, (y - 1).abs_diff(ty) as u32);
+    SIDE * dx.max(dy) + (DIAG - SIDE) * dx.min(dy)
+}
+
+/// The search's open side while it runs: distances, buckets, the cells touched.
+struct Open<'a> {
+    g: &'a mut [u32],
+    buckets: &'a mut [Vec<u64>; RING],
+    touched: &'a mut Vec<u32>,
+    coarse: Coarse<'a>,
+    dm: &'a DistanceMap,
+    target: Option<(usize, usize)>,
+}
+
+impl Open<'_> {
+    /// Opens (or shortens) cell `n` at distance `nd`; 1 if it was queued.
+    #[inline(always)]
+    fn relax<const LAZY: bool>(&mut self, n: usize, nd: u32) -> usize {
+        let old = self.g[n];
+        // Blocked cells and cells already as near fail here.
+        if nd >= old {
+            return 0;
+        }
+        if old == UNKNOWN && self.coarse.decide(self.g, self.dm, n) {
+            return 0;
+        }
+        if LAZY && old >= UNREACHED {
+            self.touched.push(n as u32);
+        }
+        self.g[n] = nd;
+        let f = if LAZY {
+            nd + octile(self.target, self.coarse.stride, n)
+        } else {
+            nd
+        };
+        self.buckets[f as usize % RING].push(((n as u64) << 32) | u64::from(nd));
+        1
+    }
+}
+
+/// What deciding a coarse cell's blocked flag needs.
+#[derive(Clone, Copy)]
+struct Coarse<'a> {
+    stride: usize,
+    /// Coarse cells per row (without the border).
+    width: usize,
+    factor: usize,
+    limit: f64,
+    /// The occupancy test equal to `limit` (`None`: the distance table's values).
+    disk: Option<&'a Disk>,
+}
+
+impl Coarse<'_> {
+    /// Decides whether padded cell `i` is blocked (and the other undecided cells of its
+    /// row that start in the same 64 map columns), records it in `g` and returns it.
+    #[cold]
+    fn decide(self, g: &mut [u32], dm: &DistanceMap, i: usize) -> bool {
+        let f = self.factor;
+        let Some(disk) = self.disk.filter(|_| f <= 64) else {
+            return self.decide_by_distance(g, dm, i);
+        };
+        let (cx, cy) = (i % self.stride - 1, i / self.stride - 1);
+        let t = (cx * f) >> 6;
+        let first = (t * 64).div_ceil(f);
+        let last = ((t * 64 + 63) / f).min(self.width - 1);
+        let two_words = (last + 1) * f > (t + 1) * 64;
+        // Bit x: some map cell in column 64 t + x of these rows is free.
+        let mut free = 0u128;
+        for y in cy * f..(cy * f + f).min(dm.height) {
+            let (y, t) = (y as isize, t as isize);
+            free |= u128::from(!disk.blocked_word(dm, y, t));
+            if two_words {
+                free |= u128::from(!disk.blocked_word(dm, y, t + 1)) << 64;
+            }
+        }
+        let row = (cy + 1) * self.stride + 1;
+        for c in first..=last {
+            if g[row + c] == UNKNOWN {
+                let a = c * f - t * 64;
+                let cells = ((1u128 << f) - 1) << a;
+                g[row + c] = if free & cells != 0 {
+                    UNREACHED
+                } else {
+                    BLOCKED
+                };
+            }
+        }
+        g[i] == BLOCKED
+    }
+
+    /// [`Coarse::decide`] for cell `i` alone, from the distance table.
+    fn decide_by_distance(self, g: &mut [u32], dm: &DistanceMap, i: usize) -> bool {
+        // For any robot centre q in a map cell c and an occupied cell o (equal squares),
+        // the farthest q is from o's square is exactly |c - o|: the far corner of c is
+        // half a cell farther, o's near edge half a cell nearer, on each axis. So a centre
+        // distance under r_in puts o's square inside the inscribed circle of every pose
+        // in c: c is blocked for sure. (Subtracting half a diagonal here, as before,
+        // left narrow holes in a detected wall open to the heuristic that the body
+        // cannot pass, and the search flooded the space before them.) The 1e-6 absorbs
+        // the f32 rounding of the stored distances.
+        let (cx, cy) = (i % self.stride - 1, i / self.stride - 1);
+        let f = self.factor;
+        let (x0, y0) = (cx * f, cy * f);
+        let (x1, y1) = ((x0 + f).min(dm.width), (y0 + f).min(dm.height));
+        let free = (y0..y1).any(|y| (x0..x1).any(|x| f64::from(dm.dist_at(x, y)) >= self.limit));
+        g[i] = if free { UNREACHED } else { BLOCKED };
+        !free
     }
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use aisle_geometry::{CellIndex, GridMap, OCCUPIED_STATIC};
-
-    #[test]
-    fn goes_around_a_wall_and_proves_enclosure() {
-        let mut g = GridMap::new_free(0.0, 0.0, 0.1, 6.0, 4.0).unwrap();
-        // A wall at x = 3.0 from y = 0 up to y = 3.0, leaving a gap above.
-        for iy in 0..30 {
-            g.set(CellIndex { ix: 30, iy }, OCCUPIED_STATIC);
-        }
-        let mut dm = DistanceMap::default();
-        dm.ensure(&g.view());
-        let mut h = GridHeuristic::default();
-        assert!(h.compute(&dm, 0.2, 0.1, (4.5, 1.0)));
-        let straight = 3.0;
-        let around = h.metres(1.5, 1.0).unwrap();
-        assert!(around > straight + 2.0, "{around}");
-        assert!(h.metres(4.6, 1.0).unwrap() < 0.2);
-        // Close the gap: the left side is unreachable.
-        for iy in 30..40 {
-            g.set(CellIndex { ix: 30, iy }, OCCUPIED_STATIC);
-        }
-        dm.ensure(&g.view());
-        assert!(h.compute(&dm, 0.2, 0.2, (4.5, 1.0)));
-        assert_eq!(h.metres(1.5, 1.0), None);
-        assert!(h.metres(5.0, 2.0).is_some());
-    }
-}
+mod tests;

@@ -32,13 +32,16 @@
 //! # Ok(()) }
 //! ```
 
+mod blocked;
 mod collision;
 pub mod config;
+mod dist_tiles;
 mod distance_map;
 pub mod dock;
 mod docked;
 pub mod error;
 mod heuristic;
+pub mod large_map;
 mod model;
 pub mod motion;
 pub mod node;
@@ -49,6 +52,7 @@ mod search;
 mod search_core;
 pub mod seed_map;
 mod smooth;
+mod states;
 pub mod validate;
 
 pub use config::PlannerConfig;

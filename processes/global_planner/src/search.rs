@@ -1,11 +1,14 @@
 //! The Hybrid A* search and the reusable [`Planner`] that runs it.
 //!
-//! Nodes keep continuous poses; the closed set is a dense grid of (search cell, heading
-//! bin) states. Each expansion applies the primitives of [`crate::model::Model`] and
-//! checks them continuously against the footprint. The heuristic is the larger of the
-//! 2D obstacle-aware grid distance (computed once per request; an unreachable start
-//! proves that there is no path before any search) and the free-space Reeds-Shepp /
-//! rotate-drive-rotate cost; the latter is evaluated lazily, when a node is first popped.
+//! Nodes keep continuous poses; the closed set is a sparse table of (search cell, heading
+//! bin) states (`states.rs`). Each expansion applies the primitives of
+//! [`crate::model::Model`] and checks them continuously against the footprint. The
+//! heuristic is the larger of the 2D obstacle-aware grid distance (a backward search
+//! from the goal, run as far as the queries need; an unreachable start proves that there
+//! is no path before any search) and the free-space Reeds-Shepp / rotate-drive-rotate
+//! cost; the latter is evaluated lazily, when a node is first popped. The map's distance
+//! tables are computed tile by tile as the search reads them (`distance_map.rs`), so a
+//! request costs what it searches, not the map's size.
 //! Every few expansions an analytic connection to the goal is tried; the first valid one
 //! ends the search. The result is sampled, smoothed and validated again.
 //!
@@ -20,14 +23,15 @@
 //! stop callback (for a wall deadline) that is asked every few hundred expansions.
 
 use crate::config::PlannerConfig;
-use crate::distance_map::DistanceMap;
+use crate::distance_map::{DistanceMap, EAGER_CELLS};
 use crate::error::{InvalidInput, PlanError, PlanErrorKind, PlanStats};
 use crate::heuristic::GridHeuristic;
 use crate::model::Model;
 use crate::motion::Motion;
 use crate::relief::{self, Clearance};
-use crate::search_core::{Buffers, Search, SearchGrid};
+use crate::search_core::{Budget, Buffers, Search};
 use crate::smooth::{SmoothParams, smooth_path};
+use crate::states::SearchGrid;
 use aisle_config::{InvalidKey, Validate};
 use aisle_geometry::{Footprint, GridView, PathPose, Pose2, path_length, wrap_angle};
 
@@ -61,10 +65,17 @@ pub struct Planner {
     cfg: PlannerConfig,
     model: Model,
     dm: DistanceMap,
-    heur: GridHeuristic,
+    /// Two heuristics, so that requests alternating between two bodies (the robot
+    /// alone, carrying a rack) keep the blocked cells of both.
+    heur: [GridHeuristic; 2],
+    /// The one the last request used.
+    heur_last: usize,
     buf: Buffers,
     /// The map with a docking body marked occupied (`docked.rs`), reused.
     pub(crate) dock_scratch: Vec<u8>,
+    /// Treat every map as a large one: distance tiles and the heuristic's search
+    /// computed as read (tests; takes effect on the next map).
+    pub(crate) lazy_only: bool,
 }
 
 impl Planner {
@@ -74,9 +85,11 @@ impl Planner {
             model: Model::new(&cfg),
             cfg,
             dm: DistanceMap::default(),
-            heur: GridHeuristic::default(),
+            heur: Default::default(),
+            heur_last: 0,
             buf: Buffers::default(),
             dock_scratch: Vec::new(),
+            lazy_only: false,
         })
     }
 
@@ -84,8 +97,9 @@ impl Planner {
         &self.cfg
     }
 
-    /// Builds (or updates) the map tables for `map` ahead of a request, so the first
-    /// request on it does not pay for them. Returns whether anything changed.
+    /// Brings the map tables to `map` ahead of a request (a small map's are built whole,
+    /// a large map's are computed as requests read them). Returns whether anything
+    /// changed.
     pub fn prepare(&mut self, map: &GridView) -> bool {
         self.dm.ensure(map)
     }
@@ -120,8 +134,11 @@ impl Planner {
         stats: &mut PlanStats,
     ) -> Result<Vec<PathPose>, PlanErrorKind> {
         check_input(req, map).map_err(PlanErrorKind::InvalidInput)?;
+        let grid = SearchGrid::new(map, self.cfg.search_resolution, self.model.bins)
+            .ok_or(PlanErrorKind::InvalidInput(InvalidInput::TooManyStates))?;
         let start = Pose2::new(req.start.x, req.start.y, wrap_angle(req.start.theta));
         let goal = Pose2::new(req.goal.x, req.goal.y, wrap_angle(req.goal.theta));
+        self.dm.force_lazy = self.lazy_only;
         stats.map_rebuilt = self.dm.ensure(map);
 
         let cfg = &self.cfg;
@@ -163,34 +180,35 @@ impl Planner {
             Some(m) => req.footprint.inflated(m).inscribed_radius(),
             None => body.inscribed_radius(),
         };
-        let reached =
-            self.heur
-                .compute(&self.dm, radius, cfg.heuristic_resolution, (goal.x, goal.y));
-        stats.heuristic_cells = self.heur.settled;
-        let h_start = self
-            .heur
-            .metres(start.x, start.y)
-            .filter(|_| reached)
-            .ok_or(PlanErrorKind::NoPath)?;
+        // A small map is searched whole (which also counts the cells the goal can be
+        // reached from); a large one as far as the queries need.
+        let eager = map.width * map.height <= EAGER_CELLS && !self.lazy_only;
+        let ends = ((goal.x, goal.y), (start.x, start.y));
+        let k = heuristic_for(&self.heur, &mut self.heur_last, radius);
+        let heur = &mut self.heur[k];
+        let reached = heur.begin(&self.dm, radius, cfg.heuristic_resolution, ends, eager);
+        let h_start = reached.then(|| heur.metres(&self.dm, start.x, start.y));
+        stats.heuristic_cells = heur.settled;
+        let h_start = h_start.flatten().ok_or(PlanErrorKind::NoPath)?;
 
-        // A fixed budget that suits a 20 x 30 m hall gives up on a detour in a larger one:
-        // the budget grows with the cells the goal can be reached from.
-        let scaled = cfg.expansions_per_reachable_cell * f64::from(stats.heuristic_cells);
-        let budget = req
-            .max_expansions
-            .max(scaled.min(f64::from(u32::MAX)) as u32);
+        let per_cell = cfg.expansions_per_reachable_cell;
+        let budget = Budget::new(req.max_expansions, per_cell, eager.then_some(heur.settled));
         let mut search = Search {
             cfg,
             model,
-            grid: SearchGrid::new(map, cfg.search_resolution, model.bins),
-            heur: &self.heur,
+            grid,
+            dm: &self.dm,
+            heur,
+            budget,
             checker,
             goal,
             buf: &mut self.buf,
             stats: &mut *stats,
         };
         search.open_start(start, h_start);
-        let (last, shot) = search.run(budget, should_stop)?;
+        let outcome = search.run(should_stop);
+        stats.heuristic_cells = self.heur[k].settled;
+        let (last, shot) = outcome?;
 
         let buf = &mut self.buf;
         stats.path_cost = buf.nodes[last].g + shot.cost;
@@ -243,6 +261,22 @@ fn output_path(
     Ok(path)
 }
 
+/// The most cells a map may have (2^25: 200 x 200 m at 0.035 m); the tables a request
+/// builds are proportional to what it searches, but the planner keeps a copy of the
+/// cells and flags per heuristic cell.
+pub const MAX_MAP_CELLS: u64 = 1 << 25;
+
+/// Which of the two heuristics serves a body of inscribed radius `r_in`: the one that
+/// did, else the one not used `last`.
+fn heuristic_for(heur: &[GridHeuristic; 2], last: &mut usize, r_in: f64) -> usize {
+    let k = match heur.iter().position(|h| h.serves(r_in)) {
+        Some(k) => k,
+        None => 1 - *last,
+    };
+    *last = k;
+    k
+}
+
 fn check_input(req: &PlanRequest, map: &GridView) -> Result<(), InvalidInput> {
     if !req.start.is_finite() {
         return Err(InvalidInput::StartNotFinite);
@@ -265,9 +299,11 @@ fn check_input(req: &PlanRequest, map: &GridView) -> Result<(), InvalidInput> {
         || map.width == 0
         || map.height == 0
         || map.cells.len() != map.width * map.height
-        || (map.width as u64 * map.height as u64) > u64::from(u32::MAX / 1024)
     {
         return Err(InvalidInput::Map);
+    }
+    if map.width as u64 * map.height as u64 > MAX_MAP_CELLS {
+        return Err(InvalidInput::MapTooLarge);
     }
     if req.max_expansions == 0 {
         return Err(InvalidInput::ZeroBudget);

@@ -1,23 +1,24 @@
 //! The search core of Hybrid A*, apart from its planner (in the manner of Nav2 smac's
 //! `a_star.hpp` beside `smac_planner_hybrid.hpp`): nodes and the open list, the buffers
-//! kept between requests, the dense closed-set grid, and one request's [`Search`]
+//! kept between requests (the state table is sparse, `states.rs`), the expansion
+//! budget, and one request's [`Search`]
 //! (`next_node`, `close`, `shot_due`, `analytic_expansion`, `expand`) with its goal test.
 //!
 //! Knows the motion model, the collision checks (`Clearance`) and the heuristic it is handed; knows
 //! nothing of requests, configuration files or the bus.
 
 use crate::config::PlannerConfig;
+use crate::distance_map::DistanceMap;
 use crate::error::{PlanErrorKind, PlanStats};
 use crate::heuristic::GridHeuristic;
 use crate::model::{DIR_NONE, Model, Shot};
 use crate::reeds_shepp::Candidates;
 use crate::relief::Clearance;
 use crate::sampling::{append_motion, finish};
-use aisle_geometry::{GridView, PathPose, Pose2};
+use crate::states::{NONE, SearchGrid, StateTable};
+use aisle_geometry::{PathPose, Pose2};
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
-
-pub(crate) const NONE: u32 = u32::MAX;
 
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Node {
@@ -65,7 +66,7 @@ impl Ord for OpenEntry {
 #[derive(Debug, Default)]
 pub(crate) struct Buffers {
     pub(crate) nodes: Vec<Node>,
-    pub(crate) state_node: Vec<u32>,
+    pub(crate) state_node: StateTable,
     pub(crate) open: BinaryHeap<OpenEntry>,
     pub(crate) rs: Candidates,
     pub(crate) shots: Vec<Shot>,
@@ -74,14 +75,47 @@ pub(crate) struct Buffers {
     pub(crate) raw: Vec<PathPose>,
 }
 
-/// One request's search: what it reads (configuration, model, closed-set grid,
-/// heuristic, the search's collision checker, goal) and what it writes (the planner's
-/// buffers and the request's counters).
+/// The expansion budget of one request: the request's own, raised to so many expansions
+/// per cell the goal can be reached from (`expansions_per_reachable_cell`) once it is
+/// spent, which is when the heuristic's backward search is run to its end to count them.
+pub(crate) struct Budget {
+    pub(crate) limit: u32,
+    /// Expansions per reachable cell, while the limit may still grow with them.
+    pub(crate) per_cell: Option<f64>,
+}
+
+impl Budget {
+    /// A fixed budget that suits a 20 x 30 m hall gives up on a detour in a larger one:
+    /// the request's `own` budget grows to `per_cell` expansions per cell the goal can
+    /// be reached from, counted up front (`reachable`, on a small map) or when the own
+    /// budget is spent (on a large one).
+    pub(crate) fn new(own: u32, per_cell: f64, reachable: Option<u32>) -> Budget {
+        match reachable {
+            Some(cells) => {
+                let scaled = per_cell * f64::from(cells);
+                Budget {
+                    limit: own.max(scaled.min(f64::from(u32::MAX)) as u32),
+                    per_cell: None,
+                }
+            }
+            None => Budget {
+                limit: own,
+                per_cell: (per_cell > 0.0).then_some(per_cell),
+            },
+        }
+    }
+}
+
+/// One request's search: what it reads (configuration, model, state numbering, distance
+/// map, the search's collision checker, goal) and what it writes (the heuristic's
+/// backward search, the planner's buffers and the request's counters).
 pub(crate) struct Search<'a> {
     pub(crate) cfg: &'a PlannerConfig,
     pub(crate) model: &'a Model,
     pub(crate) grid: SearchGrid,
-    pub(crate) heur: &'a GridHeuristic,
+    pub(crate) dm: &'a DistanceMap,
+    pub(crate) heur: &'a mut GridHeuristic,
+    pub(crate) budget: Budget,
     pub(crate) checker: Clearance<'a>,
     pub(crate) goal: Pose2,
     pub(crate) buf: &'a mut Buffers,
@@ -91,13 +125,16 @@ pub(crate) struct Search<'a> {
 impl Search<'_> {
     /// Clears the buffers and puts the start node on the open list.
     pub(crate) fn open_start(&mut self, start: Pose2, h_start: f64) {
-        self.buf.reset(self.grid.states());
+        self.buf.reset(&self.grid);
         self.buf.push_node(Node {
             pose: start,
             g: 0.0,
             h: h_start * self.model.min_cost_per_metre,
             parent: NONE,
-            state: self.grid.state(&start, self.model).unwrap_or(0),
+            state: self
+                .grid
+                .state(&start, self.model.bin(start.theta))
+                .unwrap_or(0),
             prim: 0,
             dir: DIR_NONE,
             closed: false,
@@ -110,13 +147,12 @@ impl Search<'_> {
     /// the node it left from and the shot.
     pub(crate) fn run(
         &mut self,
-        budget: u32,
         should_stop: &mut dyn FnMut() -> bool,
     ) -> Result<(usize, Shot), PlanErrorKind> {
         let mut since_shot = 0u32;
         loop {
             let ni = self.next_node().ok_or(PlanErrorKind::NoPath)?;
-            self.close(ni, budget, should_stop)?;
+            self.close(ni, should_stop)?;
             let node = self.buf.nodes[ni];
             if self.shot_due(&node, &mut since_shot)
                 && let Some(shot) = self.analytic_expansion(&node)
@@ -166,20 +202,36 @@ impl Search<'_> {
     pub(crate) fn close(
         &mut self,
         ni: usize,
-        budget: u32,
         should_stop: &mut dyn FnMut() -> bool,
     ) -> Result<(), PlanErrorKind> {
-        let stats = &mut *self.stats;
-        let interval = self.cfg.stop_check_interval;
-        if stats.expansions >= budget {
+        if self.stats.expansions >= self.budget.limit && !self.grow_budget() {
             return Err(PlanErrorKind::BudgetExhausted);
         }
+        let stats = &mut *self.stats;
+        let interval = self.cfg.stop_check_interval;
         if stats.expansions > 0 && stats.expansions.is_multiple_of(interval) && should_stop() {
             return Err(PlanErrorKind::Stopped);
         }
         stats.expansions += 1;
         self.buf.nodes[ni].closed = true;
         Ok(())
+    }
+
+    /// Raises the spent budget to the one the reachable area calls for, if not done yet;
+    /// whether it is still open.
+    #[cold]
+    fn grow_budget(&mut self) -> bool {
+        let Some(per_cell) = self.budget.per_cell.take() else {
+            return false;
+        };
+        self.heur.complete(self.dm);
+        let scaled = per_cell * f64::from(self.heur.settled);
+        let limit = self
+            .budget
+            .limit
+            .max(scaled.min(f64::from(u32::MAX)) as u32);
+        self.budget.limit = limit;
+        self.stats.expansions < limit
     }
 
     /// Whether this expansion tries an analytic connection: the first one does, then
@@ -233,11 +285,11 @@ impl Search<'_> {
         let model = self.model;
         for (pi, prim) in model.prims.iter().enumerate() {
             let pose = prim.end(&node.pose);
-            let Some(state) = self.grid.state(&pose, model) else {
+            let Some(state) = self.grid.state(&pose, model.bin(pose.theta)) else {
                 continue;
             };
             let buf = &mut *self.buf;
-            let existing = buf.state_node[state as usize];
+            let existing = buf.state_node.get(state);
             if existing != NONE && buf.nodes[existing as usize].closed {
                 continue;
             }
@@ -250,7 +302,7 @@ impl Search<'_> {
             if !self.checker.motion_free(&node.pose, prim, probes) {
                 continue;
             }
-            let Some(h2d) = self.heur.metres(pose.x, pose.y) else {
+            let Some(h2d) = self.heur.metres(self.dm, pose.x, pose.y) else {
                 continue;
             };
             let child = Node {
@@ -295,22 +347,18 @@ pub(crate) fn shot_reaches_goal(
 }
 
 impl Buffers {
-    pub(crate) fn reset(&mut self, states: usize) {
+    pub(crate) fn reset(&mut self, grid: &SearchGrid) {
         for n in &self.nodes {
-            if let Some(s) = self.state_node.get_mut(n.state as usize) {
-                *s = NONE;
-            }
+            self.state_node.set(n.state, NONE);
         }
-        if self.state_node.len() < states {
-            self.state_node.resize(states, NONE);
-        }
+        self.state_node.reset(grid);
         self.nodes.clear();
         self.open.clear();
     }
 
     pub(crate) fn push_node(&mut self, n: Node) {
         let idx = self.nodes.len() as u32;
-        self.state_node[n.state as usize] = idx;
+        self.state_node.set(n.state, idx);
         self.open.push(OpenEntry {
             f: n.g + n.h,
             g: n.g,
@@ -362,44 +410,5 @@ impl Buffers {
                 .push(PathPose::new(pose, aisle_geometry::Direction::Forward));
         }
         finish(&mut self.raw, pose);
-    }
-}
-
-/// Geometry of the dense closed-set grid over the map's extent.
-pub(crate) struct SearchGrid {
-    pub(crate) origin_x: f64,
-    pub(crate) origin_y: f64,
-    pub(crate) cell: f64,
-    pub(crate) nx: usize,
-    pub(crate) ny: usize,
-    pub(crate) bins: usize,
-}
-
-impl SearchGrid {
-    pub(crate) fn new(map: &GridView, cell: f64, bins: u32) -> Self {
-        let (x0, y0, x1, y1) = map.bounds();
-        Self {
-            origin_x: x0,
-            origin_y: y0,
-            cell,
-            nx: ((x1 - x0) / cell).ceil() as usize,
-            ny: ((y1 - y0) / cell).ceil() as usize,
-            bins: bins as usize,
-        }
-    }
-
-    pub(crate) fn states(&self) -> usize {
-        self.nx * self.ny * self.bins
-    }
-
-    #[inline]
-    pub(crate) fn state(&self, p: &Pose2, model: &Model) -> Option<u32> {
-        let fx = ((p.x - self.origin_x) / self.cell).floor();
-        let fy = ((p.y - self.origin_y) / self.cell).floor();
-        if fx < 0.0 || fy < 0.0 || fx >= self.nx as f64 || fy >= self.ny as f64 {
-            return None;
-        }
-        let cell = fy as usize * self.nx + fx as usize;
-        Some((cell * self.bins + model.bin(p.theta) as usize) as u32)
     }
 }

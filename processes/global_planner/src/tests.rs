@@ -582,7 +582,18 @@ fn seed_legs_plan_on_the_scene_static_map() {
     }
 }
 
+/// A xorshift stream (tests only: seeded, so every run sees the same maps).
+pub(crate) fn stream(mut seed: u64) -> impl FnMut(i64) -> i64 {
+    move |n: i64| {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed % n as u64) as i64
+    }
+}
+
 mod golden;
+mod lazy;
 mod relief;
 
 /// The budget grows with the area the goal can be reached from: a request whose own

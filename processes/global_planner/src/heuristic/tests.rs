@@ -1,0 +1,94 @@
+use super::*;
+use aisle_geometry::{CellIndex, GridMap, OCCUPIED_STATIC};
+
+#[test]
+fn goes_around_a_wall_and_proves_enclosure() {
+    let mut g = GridMap::new_free(0.0, 0.0, 0.1, 6.0, 4.0).unwrap();
+    // A wall at x = 3.0 from y = 0 up to y = 3.0, leaving a gap above.
+    for iy in 0..30 {
+        g.set(CellIndex { ix: 30, iy }, OCCUPIED_STATIC);
+    }
+    let mut dm = DistanceMap::default();
+    dm.ensure(&g.view());
+    for eager in [true, false] {
+        let mut h = GridHeuristic::default();
+        let ends = ((4.5, 1.0), (1.5, 1.0));
+        assert!(h.begin(&dm, 0.2, 0.1, ends, eager));
+        let straight = 3.0;
+        let around = h.metres(&dm, 1.5, 1.0).unwrap();
+        assert!(around > straight + 2.0, "{around}");
+        assert!(h.metres(&dm, 4.6, 1.0).unwrap() < 0.2);
+    }
+    // Close the gap: the left side is unreachable.
+    for iy in 30..40 {
+        g.set(CellIndex { ix: 30, iy }, OCCUPIED_STATIC);
+    }
+    dm.ensure(&g.view());
+    for eager in [true, false] {
+        let mut h = GridHeuristic::default();
+        assert!(h.begin(&dm, 0.2, 0.2, ((4.5, 1.0), (1.5, 1.0)), eager));
+        assert_eq!(h.metres(&dm, 1.5, 1.0), None);
+        assert!(h.metres(&dm, 5.0, 2.0).is_some());
+    }
+}
+
+/// The backward search stopped early gives every queried cell the distance of a search
+/// over the whole map, in any order of queries, and across map changes.
+#[test]
+fn lazy_queries_equal_the_whole_search() {
+    let mut g = GridMap::new_free(0.0, 0.0, 0.05, 30.0, 20.0).unwrap();
+    let (w, h) = (g.view().width as i64, g.view().height as i64);
+    let mut next = crate::tests::stream(0x9e37_79b9_7f4a_7c15);
+    // Walls of random length: detours for the distance, pockets it cannot reach.
+    for _ in 0..60 {
+        let (x0, y0, len, vertical) = (next(w), next(h), 10 + next(120), next(2) == 0);
+        for k in 0..len {
+            let c = if vertical {
+                CellIndex { ix: x0, iy: y0 + k }
+            } else {
+                CellIndex { ix: x0 + k, iy: y0 }
+            };
+            g.set(c, OCCUPIED_STATIC);
+        }
+    }
+    let mut dm = DistanceMap::default();
+    let (mut whole, mut lazy) = (GridHeuristic::default(), GridHeuristic::default());
+    let mut compared = (0, 0);
+    for round in 0..4 {
+        dm.ensure(&g.view());
+        let point = |k: i64| {
+            (
+                0.1 + k as f64 * 0.0337 % 29.8,
+                0.1 + k as f64 * 0.0713 % 19.8,
+            )
+        };
+        let (goal, start) = (point(next(100_000)), point(next(100_000)));
+        let ok = whole.begin(&dm, 0.3, 0.1, (goal, start), true);
+        assert_eq!(ok, lazy.begin(&dm, 0.3, 0.1, (goal, start), false));
+        if !ok {
+            continue;
+        }
+        let reachable = whole.settled;
+        for _ in 0..3000 {
+            let (x, y) = point(next(100_000));
+            let a = whole.metres(&dm, x, y);
+            assert_eq!(
+                a.map(f64::to_bits),
+                lazy.metres(&dm, x, y).map(f64::to_bits)
+            );
+            compared.0 += usize::from(a.is_some());
+            compared.1 += usize::from(a.is_none());
+        }
+        assert!(lazy.settled <= reachable);
+        lazy.complete(&dm);
+        assert_eq!(lazy.settled, reachable, "round {round}");
+        // Move some walls for the next round.
+        for _ in 0..5 {
+            let (x0, y0) = (next(w), next(h));
+            for k in 0..40 {
+                g.set(CellIndex { ix: x0 + k, iy: y0 }, OCCUPIED_STATIC);
+            }
+        }
+    }
+    assert!(compared.0 > 3000 && compared.1 > 10, "{compared:?}");
+}
