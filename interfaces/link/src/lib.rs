@@ -9,6 +9,7 @@
 //! - [`control`]: the supervisor's requests to a host daemon (start, spawn, kill, stop)
 //!   and the ends of a host's nodes, over Zenoh queryables.
 //! - [`bridge`]: the iceoryx2 Zenoh link of one host, bridging exactly those topics.
+//! - [`probe`]: the one-way latency of the samples that cross to a host.
 //!
 //! Knows the graph's names, the hosts and the link; it does not launch nodes.
 
@@ -17,12 +18,15 @@ pub mod control;
 pub mod crossing;
 pub mod hosts;
 mod ordered;
+pub mod probe;
 
 pub use bridge::{Bridge, LinkError, zenoh_config};
 pub use control::{
-    ControlClient, ControlServer, HostReply, HostRequest, NodeExit, StartGroup, open_session,
+    BEAT, ControlClient, ControlServer, HostReply, HostRequest, NodeExit, StartGroup, beat,
+    open_session,
 };
 pub use crossing::{Crossing, crossing_topics};
 pub use hosts::{HostDecl, HostsFile, Placement};
+pub use probe::LinkSample;
 /// The Zenoh session a host's link and control share.
 pub use zenoh::Session;

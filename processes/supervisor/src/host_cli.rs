@@ -6,7 +6,8 @@
 //! instance, announces it to its nodes as the supervisor does, holds and bridges the
 //! topics the supervisor names, and starts the nodes placed here. `spawn` and `kill`
 //! act on one node, `stop` stops them all and removes the instance; the end of each
-//! node is reported to the supervisor, which decides on restarts.
+//! node is reported to the supervisor, which decides on restarts. A beat every
+//! `aisle_link::BEAT` tells the supervisor this host is reachable.
 //!
 //! Knows processes and the control requests; not what the nodes compute.
 
@@ -31,7 +32,7 @@ const POLL: Duration = Duration::from_millis(20);
 /// `stop`), then the link, the held services and the bus before the instance goes.
 struct Part {
     group: ProcessGroup,
-    _bridge: Bridge,
+    bridge: Bridge,
     _held: Vec<HeldService>,
     /// The announcement, handed to every node that joins (history 1).
     info: Publisher<InstanceInfo>,
@@ -77,6 +78,20 @@ fn serve(name: &str, hosts: &Path, config_dir: &Path, ours: &str) -> anyhow::Res
     })?;
     let session = aisle_link::open_session(name, aisle_link::zenoh_config(me, NAMESPACE)?)?;
     let server = ControlServer::declare(&session, name)?;
+    // The beat by which the supervisor tells this host's link is up, from a thread of
+    // its own: a request that takes long (a start, a stop) does not silence it.
+    let beating = {
+        let (session, name) = (session.clone(), name.to_string());
+        std::thread::Builder::new()
+            .name("beat".into())
+            .spawn(move || {
+                while !signals::stop_requested() {
+                    aisle_link::beat(&session, &name);
+                    std::thread::sleep(aisle_link::BEAT);
+                }
+            })
+            .context("cannot start the beat thread")?
+    };
     tracing::info!(
         host = name,
         "serving; listen {:?}, connect {:?}",
@@ -125,6 +140,7 @@ fn serve(name: &str, hosts: &Path, config_dir: &Path, ours: &str) -> anyhow::Res
     if let Some(p) = part.take() {
         p.stop();
     }
+    let _ = beating.join();
     Ok(())
 }
 
@@ -158,6 +174,13 @@ fn handle(request: &HostRequest, part: &mut Option<Part>, here: &Here<'_>) -> Ho
             p.group.kill(kind);
             Ok(())
         }),
+        HostRequest::LinkSamples => {
+            let (samples, dropped) = part
+                .as_ref()
+                .map(|p| p.bridge.take_samples())
+                .unwrap_or_default();
+            return HostReply::LinkSamples(samples, dropped);
+        }
         HostRequest::Stop => {
             if let Some(p) = part.take() {
                 p.stop();
@@ -241,7 +264,7 @@ fn start_part(start: &StartGroup, here: &Here<'_>) -> anyhow::Result<Part> {
     }
     Ok(Part {
         group,
-        _bridge: bridge,
+        bridge,
         _held: held,
         info,
         _bus: bus,
