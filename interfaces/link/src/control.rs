@@ -8,23 +8,20 @@
 //! catalogue (and so the schema hash) stays as it is. Requests and replies are JSON.
 //!
 //! Keys, under the session's namespace: `aisle/host/<name>/control` (queryable of host
-//! `<name>`), `aisle/host/<name>/exit` (its nodes' ends) and `aisle/host/<name>/alive`
-//! (its daemon's beat, every [`BEAT`], at real-time priority and never blocking: the
-//! supervisor tells a link that is down from a node that hangs by it).
+//! `<name>`) and `aisle/host/<name>/exit` (its nodes' ends); the hosts' beats are
+//! `crate::beat`.
 //!
 //! Knows the requests and their keys; not how a host runs its nodes.
 
 use crate::LinkError;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
-use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 /// How long a request waits before it is sent again to a host that did not answer.
 const RETRY: Duration = Duration::from_millis(200);
 use zenoh::Wait;
 use zenoh::handlers::FifoChannelHandler;
-use zenoh::qos::{CongestionControl, Priority};
 use zenoh::query::{Query, Queryable};
 use zenoh::sample::Sample;
 
@@ -46,6 +43,10 @@ pub struct StartGroup {
     pub topics: Vec<String>,
     /// Per node placed on the host, the arguments after `aisle node <name> --prefix ...`.
     pub nodes: BTreeMap<String, Vec<String>>,
+    /// The supervisor's host, and how long it may be silent before the host stops
+    /// its nodes (`restart.toml` `link.down_limit_s`).
+    pub home: String,
+    pub down_limit_ms: u64,
 }
 
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -88,24 +89,6 @@ fn control_key(host: &str) -> String {
 
 fn exit_key(host: &str) -> String {
     format!("aisle/host/{host}/exit")
-}
-
-fn alive_key(host: &str) -> String {
-    format!("aisle/host/{host}/alive")
-}
-
-/// How often a host daemon says it is there.
-pub const BEAT: Duration = Duration::from_millis(20);
-
-/// Puts `host`'s beat: dropped, not queued, when the link cannot take it.
-pub fn beat(session: &zenoh::Session, host: &str) {
-    let put = session
-        .put(alive_key(host), Vec::<u8>::new())
-        .congestion_control(CongestionControl::Drop)
-        .priority(Priority::RealTime);
-    if let Err(e) = put.wait() {
-        tracing::debug!("beat of host {host}: {e}");
-    }
 }
 
 fn zerr(host: &str, what: &str, e: impl std::fmt::Display) -> LinkError {
@@ -186,9 +169,7 @@ impl ControlServer {
 pub struct ControlClient {
     session: zenoh::Session,
     exits: zenoh::pubsub::Subscriber<FifoChannelHandler<Sample>>,
-    /// Host -> when its last beat arrived (`aisle_bus::clock::monotonic_ns`).
-    beats: Arc<Mutex<BTreeMap<String, u64>>>,
-    _beats: zenoh::pubsub::Subscriber<()>,
+    beats: crate::beat::Beats,
 }
 
 impl ControlClient {
@@ -197,35 +178,18 @@ impl ControlClient {
             .declare_subscriber(exit_key("*"))
             .wait()
             .map_err(|e| zerr("*", "cannot subscribe to the hosts' node ends", e))?;
-        let beats: Arc<Mutex<BTreeMap<String, u64>>> = Arc::default();
-        let book = beats.clone();
-        let _beats = session
-            .declare_subscriber(alive_key("*"))
-            .callback(move |s: Sample| {
-                let now = aisle_bus::clock::monotonic_ns();
-                let host = s
-                    .key_expr()
-                    .as_str()
-                    .strip_prefix("aisle/host/")
-                    .and_then(|k| k.strip_suffix("/alive"));
-                if let (Some(host), Ok(mut m)) = (host, book.lock()) {
-                    m.insert(host.to_string(), now);
-                }
-            })
-            .wait()
-            .map_err(|e| zerr("*", "cannot subscribe to the hosts' beats", e))?;
+        let beats = crate::beat::Beats::declare(session)?;
         Ok(ControlClient {
             session: session.clone(),
             exits,
             beats,
-            _beats,
         })
     }
 
     /// When each host's last beat arrived (`aisle_bus::clock::monotonic_ns`); a host
     /// not heard yet is absent.
     pub fn beats(&self) -> BTreeMap<String, u64> {
-        self.beats.lock().map(|m| m.clone()).unwrap_or_default()
+        self.beats.last()
     }
 
     /// Sends `request` to `host` and waits up to `timeout` for its reply. A host not yet

@@ -7,7 +7,9 @@
 //! topics the supervisor names, and starts the nodes placed here. `spawn` and `kill`
 //! act on one node, `stop` stops them all and removes the instance; the end of each
 //! node is reported to the supervisor, which decides on restarts. A beat every
-//! `aisle_link::BEAT` tells the supervisor this host is reachable.
+//! `aisle_link::BEAT` tells the supervisor this host is reachable; when the supervisor's
+//! host stays silent past the run's `link.down_limit_s`, the daemon stops its nodes and
+//! removes the instance itself (nothing is left behind on a host cut off for good).
 //!
 //! Knows processes and the control requests; not what the nodes compute.
 
@@ -33,6 +35,9 @@ const POLL: Duration = Duration::from_millis(20);
 struct Part {
     group: ProcessGroup,
     bridge: Bridge,
+    /// The supervisor's host, and how long it may be silent before the nodes stop.
+    home: String,
+    down_limit_ms: u64,
     _held: Vec<HeldService>,
     /// The announcement, handed to every node that joins (history 1).
     info: Publisher<InstanceInfo>,
@@ -41,6 +46,14 @@ struct Part {
 }
 
 impl Part {
+    /// The supervisor's host and how long it has been silent, when longer than the
+    /// run's limit (a supervisor not heard yet is not counted).
+    fn orphaned(&self, beats: &aisle_link::Beats) -> Option<(String, f64)> {
+        let last = *beats.last().get(&self.home)?;
+        let silent_s = aisle_bus::clock::monotonic_ns().saturating_sub(last) as f64 * 1e-9;
+        (silent_s * 1e3 > self.down_limit_ms as f64).then(|| (self.home.clone(), silent_s))
+    }
+
     fn stop(mut self) {
         self.group.stop(GRACE);
         let instance = self.instance.clone();
@@ -78,20 +91,10 @@ fn serve(name: &str, hosts: &Path, config_dir: &Path, ours: &str) -> anyhow::Res
     })?;
     let session = aisle_link::open_session(name, aisle_link::zenoh_config(me, NAMESPACE)?)?;
     let server = ControlServer::declare(&session, name)?;
-    // The beat by which the supervisor tells this host's link is up, from a thread of
-    // its own: a request that takes long (a start, a stop) does not silence it.
-    let beating = {
-        let (session, name) = (session.clone(), name.to_string());
-        std::thread::Builder::new()
-            .name("beat".into())
-            .spawn(move || {
-                while !signals::stop_requested() {
-                    aisle_link::beat(&session, &name);
-                    std::thread::sleep(aisle_link::BEAT);
-                }
-            })
-            .context("cannot start the beat thread")?
-    };
+    // The beat by which the supervisor tells this host's link is up; the supervisor's
+    // own beat, by which this host stops its nodes when the supervisor is gone.
+    let _beating = aisle_link::Beating::start(&session, name)?;
+    let beats = aisle_link::Beats::declare(&session)?;
     tracing::info!(
         host = name,
         "serving; listen {:?}, connect {:?}",
@@ -120,6 +123,15 @@ fn serve(name: &str, hosts: &Path, config_dir: &Path, ours: &str) -> anyhow::Res
             }
             pending.reply(&reply);
         }
+        if let Some((home, silent_s)) = part.as_ref().and_then(|p| p.orphaned(&beats)) {
+            tracing::error!(
+                host = name,
+                "nothing from the supervisor's host `{home}` for {silent_s:.1} s: stopping this host's nodes"
+            );
+            if let Some(p) = part.take() {
+                p.stop();
+            }
+        }
         if let Some(p) = part.as_mut() {
             // iceoryx2 hands the history to a late subscriber when its publisher updates
             // its connections: the announcement reaches the nodes that (re)join so.
@@ -140,7 +152,6 @@ fn serve(name: &str, hosts: &Path, config_dir: &Path, ours: &str) -> anyhow::Res
     if let Some(p) = part.take() {
         p.stop();
     }
-    let _ = beating.join();
     Ok(())
 }
 
@@ -265,6 +276,8 @@ fn start_part(start: &StartGroup, here: &Here<'_>) -> anyhow::Result<Part> {
     Ok(Part {
         group,
         bridge,
+        home: start.home.clone(),
+        down_limit_ms: start.down_limit_ms,
         _held: held,
         info,
         _bus: bus,

@@ -7,7 +7,7 @@
 
 use aisle_bus::{Bus, HeldService, Instance};
 use aisle_link::{
-    Bridge, ControlClient, HostReply, HostRequest, LinkSample, Placement, StartGroup,
+    Beating, Bridge, ControlClient, HostReply, HostRequest, LinkSample, Placement, StartGroup,
     crossing_topics,
 };
 use aisle_messages::NodeKind;
@@ -32,6 +32,7 @@ pub struct RemoteNodes {
     /// This host's name.
     home: String,
     client: ControlClient,
+    _beating: Beating,
     // Drop order: the link before the services it bridges.
     bridge: Bridge,
     _held: Vec<HeldService>,
@@ -52,6 +53,8 @@ pub struct SpreadStart<'a> {
     pub mode: u32,
     pub dt_ns: u64,
     pub controller_every: u32,
+    /// How long a host's daemon keeps its nodes while this host is silent.
+    pub down_limit_s: f64,
 }
 
 impl RemoteNodes {
@@ -90,6 +93,7 @@ impl RemoteNodes {
         )?;
         tracing::info!(host = %home.name, "bridging {} topics: {}", mine.len(), mine.join(", "));
         let client = ControlClient::new(&session)?;
+        let beating = Beating::start(&session, &home.name)?;
         let mut placed = BTreeMap::new();
         for h in s.placement.hosts().iter().filter(|h| h.name != home.name) {
             let nodes: BTreeMap<String, Vec<String>> = expected
@@ -111,6 +115,8 @@ impl RemoteNodes {
                 controller_every: s.controller_every,
                 topics: topics_of(&h.name),
                 nodes,
+                home: home.name.clone(),
+                down_limit_ms: (s.down_limit_s * 1e3) as u64,
             };
             match client.request(&h.name, &HostRequest::Start(start), START_TIMEOUT)? {
                 HostReply::Done | HostReply::LinkSamples(..) => {
@@ -123,6 +129,7 @@ impl RemoteNodes {
             placed,
             home: home.name.clone(),
             client,
+            _beating: beating,
             bridge,
             _held: held,
             _session: session,
@@ -130,9 +137,11 @@ impl RemoteNodes {
     }
 
     /// When each other host's last beat arrived (`aisle_bus::clock::monotonic_ns`); a
-    /// host not heard yet is absent.
+    /// host not heard yet is absent, and so is this one (its own beats come back).
     pub fn beats(&self) -> BTreeMap<String, u64> {
-        self.client.beats()
+        let mut beats = self.client.beats();
+        beats.remove(&self.home);
+        beats
     }
 
     /// The host that runs `kind`, when not this one.
@@ -168,8 +177,9 @@ impl RemoteNodes {
     }
 
     /// The samples that crossed to each host (this one's link, and every other host's
-    /// on request), as `(from, to, sample)`; a host that does not answer is said once.
-    pub fn link_samples(&self) -> Vec<(String, String, LinkSample)> {
+    /// on request, but those `skip` names: cut off), as `(from, to, sample)`; a host
+    /// that does not answer is said once.
+    pub fn link_samples(&self, skip: impl Fn(&str) -> bool) -> Vec<(String, String, LinkSample)> {
         let from = |s: &LinkSample| {
             let node = NodeKind::from_u32(s.source).map_or("?", |k| k.name());
             self.placed.get(node).unwrap_or(&self.home).clone()
@@ -184,7 +194,7 @@ impl RemoteNodes {
         let (mine, dropped) = self.bridge.take_samples();
         keep(&self.home, mine, dropped);
         let hosts: std::collections::BTreeSet<&String> = self.placed.values().collect();
-        for h in hosts {
+        for h in hosts.into_iter().filter(|h| !skip(h)) {
             match self
                 .client
                 .request(h, &HostRequest::LinkSamples, REQUEST_TIMEOUT)

@@ -40,7 +40,8 @@ impl Session {
         let Some(remote) = self.health.group.remote() else {
             return;
         };
-        for (from, to, s) in remote.link_samples() {
+        let links = &self.health.links;
+        for (from, to, s) in remote.link_samples(|h| links.is_down(h)) {
             let topic = s.topic.strip_prefix("aisle/").unwrap_or(&s.topic);
             self.book
                 .record(&format!("link {from}>{to} {topic}"), s.tick, s.ns);

@@ -232,6 +232,7 @@ fn launch_group(
             mode: opts.mode as u32,
             dt_ns,
             controller_every: every,
+            down_limit_s: config.restart.link.down_limit_s,
         };
         let remote = RemoteNodes::start(&spread, &expected)?;
         group.attach_remote(remote);
