@@ -200,6 +200,7 @@ mod tests {
         let shipped = aisle_config::testing::shipped("restart.toml");
         let cfg = aisle_config::load::<RestartConfig>(&shipped).unwrap();
         assert!(cfg.policy(NodeKind::Lidar).max_restarts >= 1);
+        assert!(cfg.link.silent_s < cfg.link.down_limit_s);
         let text = "[default]\nmax_restarts = 1\nwindow_s = 5.0\nheartbeat_timeout_s = 2.0\n[node.lidar]\nmax_restarts = 4\n";
         let p = std::env::temp_dir().join(format!("aisle-restart-{}.toml", std::process::id()));
         std::fs::write(&p, text).unwrap();
@@ -219,6 +220,24 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("node.lidar.realtime_heartbeat_timeout_s"), "{e}");
+        std::fs::write(
+            &p,
+            format!("{text}[link]\nsilent_s = 0.01\ndown_limit_s = 5.0\n"),
+        )
+        .unwrap();
+        let e = aisle_config::load::<RestartConfig>(&p)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("link.silent_s"), "{e}");
+        std::fs::write(
+            &p,
+            format!("{text}[link]\nsilent_s = 0.2\ndown_limit_s = 0.1\n"),
+        )
+        .unwrap();
+        let e = aisle_config::load::<RestartConfig>(&p)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("link.down_limit_s"), "{e}");
         std::fs::write(&p, text.replace("[node.lidar]", "[node.lidr]")).unwrap();
         let e = aisle_config::load::<RestartConfig>(&p)
             .unwrap_err()
