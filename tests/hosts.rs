@@ -28,6 +28,9 @@ fn hosts_file(dir: &TestDir) -> PathBuf {
     p
 }
 
+/// How long the link-cut test keeps host `b` cut off.
+const CUT: Duration = Duration::from_secs(2);
+
 /// A host daemon that is stopped (SIGTERM, then SIGKILL) when dropped.
 struct Daemon(Child);
 
@@ -45,8 +48,10 @@ struct Spread {
     report: Option<aisle_supervisor::report::RunReport>,
 }
 
-/// The seed mission with the acceptance placement; `b_args` go to `aisle host` on `b`.
-fn spread_run(name: &str, b_args: &[&str]) -> Spread {
+/// The seed mission with the acceptance placement; `b_args` go to `aisle host` on `b`,
+/// `run_args` to `aisle run` on `a`. `cut`: host `b`'s link goes down this long after
+/// the run started, for [`CUT`].
+fn spread_run(name: &str, b_args: &[&str], run_args: &[&str], cut: Option<Duration>) -> Spread {
     let hosts = Hosts::new(2);
     let dir = TestDir::new(name);
     // A second short run directory: iceoryx2 limits the length of an instance root.
@@ -67,21 +72,30 @@ fn spread_run(name: &str, b_args: &[&str]) -> Spread {
     let mut b = Daemon(hosts.aisle(1, &run_b.run_dir(), &args));
     let b_err = stderr_reader(&mut b.0);
     let report = dir.path("report.json");
-    let run = hosts.aisle(
-        0,
-        &dir.run_dir(),
-        &[
-            "run",
-            "--quiet",
-            "--hosts",
-            file_s,
-            "--config-dir",
-            config_s,
-            "--report",
-            report.to_str().unwrap(),
-        ],
-    );
-    let out = run.wait_with_output().unwrap();
+    let mut args = vec![
+        "run",
+        "--quiet",
+        "--hosts",
+        file_s,
+        "--config-dir",
+        config_s,
+        "--report",
+        report.to_str().unwrap(),
+    ];
+    args.extend_from_slice(run_args);
+    let run = hosts.aisle(0, &dir.run_dir(), &args);
+    let out = std::thread::scope(|s| {
+        if let Some(at) = cut {
+            let hosts = &hosts;
+            s.spawn(move || {
+                std::thread::sleep(at);
+                hosts.set_link(1, false);
+                std::thread::sleep(CUT);
+                hosts.set_link(1, true);
+            });
+        }
+        run.wait_with_output().unwrap()
+    });
     drop(b);
     let b_err = b_err.join().unwrap();
     let report = std::fs::read_to_string(&report)
@@ -90,9 +104,14 @@ fn spread_run(name: &str, b_args: &[&str]) -> Spread {
     Spread { out, b_err, report }
 }
 
-/// The spread seed mission: its report, or a panic with both sides' stderr.
-fn spread_seed(name: &str) -> aisle_supervisor::report::RunReport {
-    let s = spread_run(name, &[]);
+/// The spread seed mission (`run_args` added to `aisle run`): its report, or a panic
+/// with both sides' stderr. No node restarts, but the one a `--kill` asks for.
+fn spread_seed(
+    name: &str,
+    run_args: &[&str],
+    cut: Option<Duration>,
+) -> aisle_supervisor::report::RunReport {
+    let s = spread_run(name, &[], run_args, cut);
     let r = s.report.unwrap_or_else(|| {
         panic!(
             "no report\nsupervisor: {}\nhost b: {}",
@@ -101,7 +120,8 @@ fn spread_seed(name: &str) -> aisle_supervisor::report::RunReport {
         )
     });
     assert!(r.success, "{:?}\nhost b: {}", r.failure, s.b_err);
-    assert_eq!(r.restarts, 0, "host b: {}", s.b_err);
+    let killed = run_args.contains(&"--kill");
+    assert_eq!(r.restarts, u32::from(killed), "host b: {}", s.b_err);
     r
 }
 
@@ -110,7 +130,7 @@ fn spread_seed(name: &str) -> aisle_supervisor::report::RunReport {
 #[test]
 fn the_seed_mission_spread_over_two_hosts_drives_the_single_host_path() {
     needs_netns!();
-    let r = spread_seed("hosts-seed");
+    let r = spread_seed("hosts-seed", &[], None);
     assert_eq!(r.collisions, 0);
     let (digest, poses) = seed_baseline();
     assert_eq!(r.driven_path.len(), poses);
@@ -121,10 +141,66 @@ fn the_seed_mission_spread_over_two_hosts_drives_the_single_host_path() {
 fn a_host_of_another_schema_is_refused_with_both_hashes() {
     needs_netns!();
     let other = "0123456789abcdef";
-    let s = spread_run("hosts-schema", &["--pretend-schema", other]);
+    let s = spread_run("hosts-schema", &["--pretend-schema", other], &[], None);
     let err = String::from_utf8_lossy(&s.out.stderr);
     assert_eq!(s.out.status.code(), Some(2), "{err}");
     let ours = format!("{:016x}", aisle_messages::schema_hash());
     assert!(err.contains("host `b` refused"), "{err}");
     assert!(err.contains(other) && err.contains(&ours), "{err}");
+}
+
+/// The same placement in realtime: the heartbeats, ticks and acknowledgements cross the
+/// link while the clock runs on; the mission succeeds without a collision or a restart,
+/// and the latency table has a row per topic and direction that crossed.
+#[test]
+fn the_seed_mission_spread_over_two_hosts_runs_in_realtime() {
+    needs_netns!();
+    let r = spread_seed("hosts-rt", &["--realtime"], None);
+    assert_eq!(r.collisions, 0);
+    let row = |name: &str| {
+        r.latency
+            .iter()
+            .find(|s| s.stage == name)
+            .unwrap_or_else(|| panic!("no row `{name}` in {:?}", r.latency))
+    };
+    // Every tick's robot state crosses to the pipeline, every trajectory back.
+    let state = row("link a>b robot_state");
+    assert!(state.samples as u64 + 5 >= r.ticks, "{state:?}");
+    let traj = row("link b>a controller/trajectory");
+    assert!(traj.samples > 0 && traj.p50_ms <= traj.p99_ms, "{traj:?}");
+    assert!(row("link a>b tick").samples > 0 && row("link b>a tick_done").samples > 0);
+}
+
+/// Host `b` cut off for 2 s in the middle of the first leg (the robot drives it from
+/// about 1 s to 13 s of sim time; the group is ready a few seconds after the start): the
+/// supervisor stops the robot and holds the nodes of `b` instead of declaring them
+/// hung, and the mission goes on when the link is back. Rest is measured from `b`'s
+/// last beat to the simulator's first robot state at rest (ground truth, both on `a`).
+#[test]
+fn a_link_cut_for_two_seconds_stops_the_robot_and_the_mission_resumes() {
+    needs_netns!();
+    let r = spread_seed("hosts-cut", &["--realtime"], Some(Duration::from_secs(8)));
+    assert_eq!(r.collisions, 0);
+    assert_eq!(r.link_outages.len(), 1, "{:?}", r.link_outages);
+    let o = &r.link_outages[0];
+    assert_eq!(o.host, "b");
+    let rest = o.at_rest_after_s.expect("the robot came to rest");
+    assert!(rest <= 0.3, "at rest {rest:.3} s after the last beat of b");
+    let down = o.down_s.expect("the link came back");
+    assert!(down >= CUT.as_secs_f64() * 0.9, "down {down:.3} s");
+    assert!(o.moving_after_s.is_some(), "the robot moved again: {o:?}");
+}
+
+/// A node on host `b` killed mid-run (lockstep) is restarted through `b`'s daemon: the
+/// supervisor hears of its end over Zenoh, asks for the restart, and the tick it died
+/// in reaches its successor (the history of the ticks that cross is handed on); the
+/// driven path is the undisturbed single-host one to the bit.
+#[test]
+fn a_node_killed_on_the_other_host_is_restarted_through_its_daemon() {
+    needs_netns!();
+    let r = spread_seed("hosts-kill", &["--kill", "lidar@30"], None);
+    assert_eq!(r.collisions, 0);
+    let (digest, poses) = seed_baseline();
+    assert_eq!(r.driven_path.len(), poses);
+    assert_eq!(path_digest(&r.driven_path), digest);
 }

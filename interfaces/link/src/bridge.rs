@@ -13,12 +13,14 @@
 //!   the service hash (`iox2/v1/channel/<hash>/<types fingerprint>`).
 //!
 //! - the link keeps no order between services: the tick protocol travels beside it
-//!   (`crate::ordered`), sequenced around its rounds.
+//!   (`crate::ordered`), sequenced around its rounds;
+//! - after each round, `crate::probe` notes the latency of what crossed to this host.
 //!
 //! Knows the link and Zenoh; not which topics cross (the caller says) nor the nodes.
 
 use crate::HostDecl;
 use crate::ordered::Ordered;
+use crate::probe::Probe;
 use aisle_bus::{Bus, Instance};
 use aisle_messages::{NodeKind, topics};
 use iceoryx2::prelude::*;
@@ -82,6 +84,8 @@ pub fn zenoh_config(host: &HostDecl, namespace: &str) -> Result<zenoh::Config, L
 pub struct Bridge {
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
+    /// The latency of the samples that crossed to this host (`crate::probe`).
+    noted: crate::probe::Shared,
 }
 
 /// How long the link sleeps between two rounds of propagation. Nothing wakes the link
@@ -109,7 +113,12 @@ impl Bridge {
         let stop = Arc::new(AtomicBool::new(false));
         let (ready_tx, ready_rx) = mpsc::channel::<Result<(), String>>();
         let (inst, flag, name) = (instance.clone(), stop.clone(), host.to_string());
-        let sides = Sides { topics, sources };
+        let noted = crate::probe::Shared::default();
+        let sides = Sides {
+            topics,
+            sources,
+            noted: noted.clone(),
+        };
         let thread = std::thread::Builder::new()
             .name(format!("link-{host}"))
             .spawn(move || run(&name, &inst, session, sides, &flag, ready_tx))
@@ -125,9 +134,24 @@ impl Bridge {
             Ok(Ok(())) => Ok(Bridge {
                 stop,
                 thread: Some(thread),
+                noted,
             }),
             Ok(Err(what)) => Err(start_err(what)),
             Err(_) => Err(start_err("the link thread ended before it started".into())),
+        }
+    }
+}
+
+impl Bridge {
+    /// The samples that crossed to this host since the last call, and how many were
+    /// not kept (`crate::probe::MAX_SAMPLES`).
+    pub fn take_samples(&self) -> (Vec<crate::LinkSample>, u64) {
+        match self.noted.lock() {
+            Ok(mut n) => (
+                std::mem::take(&mut n.samples),
+                std::mem::take(&mut n.dropped),
+            ),
+            Err(_) => (Vec::new(), 0),
         }
     }
 }
@@ -148,6 +172,7 @@ pub const ORDERED: [&str; 2] = [topics::TICK.name, topics::TICK_DONE.name];
 struct Sides {
     topics: Vec<String>,
     sources: Vec<u32>,
+    noted: crate::probe::Shared,
 }
 
 fn run(
@@ -168,7 +193,8 @@ fn run(
             .topics
             .into_iter()
             .partition(|t| ORDERED.contains(&t.as_str()));
-        let ordered = Ordered::open(&bus, &session, &ordered, sides.sources)?;
+        let probe = Probe::open(&bus, &bridged, sides.sources.clone(), sides.noted.clone());
+        let ordered = Ordered::open(&bus, &session, &ordered, sides.sources, sides.noted)?;
         let topics = bridged;
         let carrier = ZenohCarrier::open(session).map_err(|e| format!("zenoh carrier: {e}"))?;
         let node = NodeBuilder::new()
@@ -179,9 +205,9 @@ fn run(
         let mut link = Link::new(node, Tunnel::new(carrier, config))
             .with_filter(move |name| topics.iter().any(|t| t.as_str() == name.as_str()));
         let listener = link.listener().map_err(|e| format!("link wake-up: {e}"))?;
-        Ok((link, listener, ordered, bus))
+        Ok((link, listener, ordered, probe, bus))
     };
-    let (mut link, listener, mut ordered, _bus) = match setup() {
+    let (mut link, listener, mut ordered, mut probe, _bus) = match setup() {
         Ok(v) => {
             let _ = ready.send(Ok(()));
             v
@@ -202,11 +228,13 @@ fn run(
             if let Err(e) = link.discover() {
                 tracing::warn!(host, "link discovery: {e}");
             }
+            ordered.update_connections();
         }
         let held = ordered.take();
         // A failure repeats every round while it lasts: said once.
         let propagated = link.propagate();
         ordered.deliver(held);
+        probe.drain();
         match propagated {
             Ok(()) => failing = None,
             Err(e) if failing != Some(e) => {

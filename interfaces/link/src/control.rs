@@ -8,7 +8,8 @@
 //! catalogue (and so the schema hash) stays as it is. Requests and replies are JSON.
 //!
 //! Keys, under the session's namespace: `aisle/host/<name>/control` (queryable of host
-//! `<name>`) and `aisle/host/<name>/exit` (its nodes' ends).
+//! `<name>`) and `aisle/host/<name>/exit` (its nodes' ends); the hosts' beats are
+//! `crate::beat`.
 //!
 //! Knows the requests and their keys; not how a host runs its nodes.
 
@@ -42,14 +43,25 @@ pub struct StartGroup {
     pub topics: Vec<String>,
     /// Per node placed on the host, the arguments after `aisle node <name> --prefix ...`.
     pub nodes: BTreeMap<String, Vec<String>>,
+    /// The supervisor's host, and how long it may be silent before the host stops
+    /// its nodes (`restart.toml` `link.down_limit_s`).
+    pub home: String,
+    pub down_limit_ms: u64,
 }
 
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, rename_all = "snake_case")]
 pub enum HostRequest {
     Start(StartGroup),
-    Spawn { node: String, restarted: bool },
-    Kill { node: String },
+    Spawn {
+        node: String,
+        restarted: bool,
+    },
+    Kill {
+        node: String,
+    },
+    /// The samples that crossed to the host since the last ask (`crate::probe`).
+    LinkSamples,
     Stop,
 }
 
@@ -58,6 +70,8 @@ pub enum HostRequest {
 pub enum HostReply {
     Done,
     Refused(String),
+    /// The samples, and how many were not kept.
+    LinkSamples(Vec<crate::LinkSample>, u64),
 }
 
 /// One of a host's nodes ended: the raw wait status (`ExitStatusExt::from_raw`).
@@ -151,10 +165,11 @@ impl ControlServer {
     }
 }
 
-/// The supervisor's side: requests to hosts, and their nodes' ends.
+/// The supervisor's side: requests to hosts, their nodes' ends and their beats.
 pub struct ControlClient {
     session: zenoh::Session,
     exits: zenoh::pubsub::Subscriber<FifoChannelHandler<Sample>>,
+    beats: crate::beat::Beats,
 }
 
 impl ControlClient {
@@ -163,10 +178,18 @@ impl ControlClient {
             .declare_subscriber(exit_key("*"))
             .wait()
             .map_err(|e| zerr("*", "cannot subscribe to the hosts' node ends", e))?;
+        let beats = crate::beat::Beats::declare(session)?;
         Ok(ControlClient {
             session: session.clone(),
             exits,
+            beats,
         })
+    }
+
+    /// When each host's last beat arrived (`aisle_bus::clock::monotonic_ns`); a host
+    /// not heard yet is absent.
+    pub fn beats(&self) -> BTreeMap<String, u64> {
+        self.beats.last()
     }
 
     /// Sends `request` to `host` and waits up to `timeout` for its reply. A host not yet

@@ -6,25 +6,31 @@
 //! - [`crossing`]: the topics a placement makes cross hosts (published on one host and
 //!   subscribed on another), and which of them each host must bridge.
 //!
+//! - [`beat`]: the hosts' beats, by which each tells a link that is down.
 //! - [`control`]: the supervisor's requests to a host daemon (start, spawn, kill, stop)
 //!   and the ends of a host's nodes, over Zenoh queryables.
 //! - [`bridge`]: the iceoryx2 Zenoh link of one host, bridging exactly those topics.
+//! - [`probe`]: the one-way latency of the samples that cross to a host.
 //! - [`testing`]: two hosts in one process on the loopback interface (tests, benches).
 //!
 //! Knows the graph's names, the hosts and the link; it does not launch nodes.
 
+pub mod beat;
 pub mod bridge;
 pub mod control;
 pub mod crossing;
 pub mod hosts;
 mod ordered;
+pub mod probe;
 pub mod testing;
 
+pub use beat::{BEAT, Beating, Beats};
 pub use bridge::{Bridge, LinkError, zenoh_config};
 pub use control::{
     ControlClient, ControlServer, HostReply, HostRequest, NodeExit, StartGroup, open_session,
 };
 pub use crossing::{Crossing, crossing_topics};
 pub use hosts::{HostDecl, HostsFile, Placement};
+pub use probe::LinkSample;
 /// The Zenoh session a host's link and control share.
 pub use zenoh::Session;

@@ -44,6 +44,8 @@ pub struct Ordered {
     from_remote: zenoh::pubsub::Subscriber<FifoChannelHandler<Sample>>,
     /// `NodeKind` codes of the nodes on this host.
     sources: Vec<u32>,
+    /// Where the latency of what arrives is noted (`crate::probe`).
+    noted: crate::probe::Shared,
 }
 
 /// The writer a message's bytes name (`Header::source`), if they hold a header.
@@ -59,6 +61,7 @@ impl Ordered {
         session: &zenoh::Session,
         topics: &[String],
         sources: Vec<u32>,
+        noted: crate::probe::Shared,
     ) -> Result<Ordered, String> {
         let mut ports = Vec::new();
         for t in topics {
@@ -93,7 +96,18 @@ impl Ordered {
             ports,
             from_remote,
             sources,
+            noted,
         })
+    }
+
+    /// Hands each protocol publisher's history (the current tick) to subscribers that
+    /// joined since (a node restarted on this host waits for it).
+    pub fn update_connections(&self) {
+        for p in &self.ports {
+            if let Err(e) = p.local_out.update_connections() {
+                tracing::warn!("ordered {}: {e}", p.topic);
+            }
+        }
     }
 
     /// Before a round: what this host published and what arrived from the other.
@@ -131,8 +145,11 @@ impl Ordered {
             else {
                 continue;
             };
-            if let Err(e) = p.local_out.publish_raw(&s.payload().to_bytes()) {
+            let bytes = s.payload().to_bytes();
+            if let Err(e) = p.local_out.publish_raw(&bytes) {
                 tracing::warn!("ordered {}: {e}", p.topic);
+            } else if let Ok(mut noted) = self.noted.lock() {
+                crate::probe::note(&mut noted, &p.topic, &bytes, &self.sources);
             }
         }
     }

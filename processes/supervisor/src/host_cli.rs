@@ -6,7 +6,10 @@
 //! instance, announces it to its nodes as the supervisor does, holds and bridges the
 //! topics the supervisor names, and starts the nodes placed here. `spawn` and `kill`
 //! act on one node, `stop` stops them all and removes the instance; the end of each
-//! node is reported to the supervisor, which decides on restarts.
+//! node is reported to the supervisor, which decides on restarts. A beat every
+//! `aisle_link::BEAT` tells the supervisor this host is reachable; when the supervisor's
+//! host stays silent past the run's `link.down_limit_s`, the daemon stops its nodes and
+//! removes the instance itself (nothing is left behind on a host cut off for good).
 //!
 //! Knows processes and the control requests; not what the nodes compute.
 
@@ -31,7 +34,10 @@ const POLL: Duration = Duration::from_millis(20);
 /// `stop`), then the link, the held services and the bus before the instance goes.
 struct Part {
     group: ProcessGroup,
-    _bridge: Bridge,
+    bridge: Bridge,
+    /// The supervisor's host, and how long it may be silent before the nodes stop.
+    home: String,
+    down_limit_ms: u64,
     _held: Vec<HeldService>,
     /// The announcement, handed to every node that joins (history 1).
     info: Publisher<InstanceInfo>,
@@ -40,6 +46,14 @@ struct Part {
 }
 
 impl Part {
+    /// The supervisor's host and how long it has been silent, when longer than the
+    /// run's limit (a supervisor not heard yet is not counted).
+    fn orphaned(&self, beats: &aisle_link::Beats) -> Option<(String, f64)> {
+        let last = *beats.last().get(&self.home)?;
+        let silent_s = aisle_bus::clock::monotonic_ns().saturating_sub(last) as f64 * 1e-9;
+        (silent_s * 1e3 > self.down_limit_ms as f64).then(|| (self.home.clone(), silent_s))
+    }
+
     fn stop(mut self) {
         self.group.stop(GRACE);
         let instance = self.instance.clone();
@@ -77,6 +91,10 @@ fn serve(name: &str, hosts: &Path, config_dir: &Path, ours: &str) -> anyhow::Res
     })?;
     let session = aisle_link::open_session(name, aisle_link::zenoh_config(me, NAMESPACE)?)?;
     let server = ControlServer::declare(&session, name)?;
+    // The beat by which the supervisor tells this host's link is up; the supervisor's
+    // own beat, by which this host stops its nodes when the supervisor is gone.
+    let _beating = aisle_link::Beating::start(&session, name)?;
+    let beats = aisle_link::Beats::declare(&session)?;
     tracing::info!(
         host = name,
         "serving; listen {:?}, connect {:?}",
@@ -104,6 +122,15 @@ fn serve(name: &str, hosts: &Path, config_dir: &Path, ours: &str) -> anyhow::Res
                 tracing::error!(host = name, "refused: {why}");
             }
             pending.reply(&reply);
+        }
+        if let Some((home, silent_s)) = part.as_ref().and_then(|p| p.orphaned(&beats)) {
+            tracing::error!(
+                host = name,
+                "nothing from the supervisor's host `{home}` for {silent_s:.1} s: stopping this host's nodes"
+            );
+            if let Some(p) = part.take() {
+                p.stop();
+            }
         }
         if let Some(p) = part.as_mut() {
             // iceoryx2 hands the history to a late subscriber when its publisher updates
@@ -158,6 +185,13 @@ fn handle(request: &HostRequest, part: &mut Option<Part>, here: &Here<'_>) -> Ho
             p.group.kill(kind);
             Ok(())
         }),
+        HostRequest::LinkSamples => {
+            let (samples, dropped) = part
+                .as_ref()
+                .map(|p| p.bridge.take_samples())
+                .unwrap_or_default();
+            return HostReply::LinkSamples(samples, dropped);
+        }
         HostRequest::Stop => {
             if let Some(p) = part.take() {
                 p.stop();
@@ -241,7 +275,9 @@ fn start_part(start: &StartGroup, here: &Here<'_>) -> anyhow::Result<Part> {
     }
     Ok(Part {
         group,
-        _bridge: bridge,
+        bridge,
+        home: start.home.clone(),
+        down_limit_ms: start.down_limit_ms,
         _held: held,
         info,
         _bus: bus,

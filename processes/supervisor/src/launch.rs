@@ -126,6 +126,11 @@ impl ProcessGroup {
         self.remote = Some(remote);
     }
 
+    /// The nodes on other hosts, in a spread run.
+    pub fn remote(&self) -> Option<&crate::remote::RemoteNodes> {
+        self.remote.as_ref()
+    }
+
     /// The extra arguments `kind` is started with.
     pub fn args_of(&self, kind: NodeKind) -> Vec<String> {
         (self.spec.extra)(kind)

@@ -7,7 +7,8 @@
 
 use aisle_bus::{Bus, HeldService, Instance};
 use aisle_link::{
-    Bridge, ControlClient, HostReply, HostRequest, Placement, StartGroup, crossing_topics,
+    Beating, Bridge, ControlClient, HostReply, HostRequest, LinkSample, Placement, StartGroup,
+    crossing_topics,
 };
 use aisle_messages::NodeKind;
 use aisle_node::Graph;
@@ -28,9 +29,12 @@ const REQUEST_TIMEOUT: Duration = Duration::from_secs(5);
 pub struct RemoteNodes {
     /// Node name -> host name, for the nodes not on this host.
     placed: BTreeMap<String, String>,
+    /// This host's name.
+    home: String,
     client: ControlClient,
+    _beating: Beating,
     // Drop order: the link before the services it bridges.
-    _bridge: Bridge,
+    bridge: Bridge,
     _held: Vec<HeldService>,
     _session: aisle_link::Session,
 }
@@ -49,6 +53,8 @@ pub struct SpreadStart<'a> {
     pub mode: u32,
     pub dt_ns: u64,
     pub controller_every: u32,
+    /// How long a host's daemon keeps its nodes while this host is silent.
+    pub down_limit_s: f64,
 }
 
 impl RemoteNodes {
@@ -87,6 +93,7 @@ impl RemoteNodes {
         )?;
         tracing::info!(host = %home.name, "bridging {} topics: {}", mine.len(), mine.join(", "));
         let client = ControlClient::new(&session)?;
+        let beating = Beating::start(&session, &home.name)?;
         let mut placed = BTreeMap::new();
         for h in s.placement.hosts().iter().filter(|h| h.name != home.name) {
             let nodes: BTreeMap<String, Vec<String>> = expected
@@ -108,19 +115,33 @@ impl RemoteNodes {
                 controller_every: s.controller_every,
                 topics: topics_of(&h.name),
                 nodes,
+                home: home.name.clone(),
+                down_limit_ms: (s.down_limit_s * 1e3) as u64,
             };
             match client.request(&h.name, &HostRequest::Start(start), START_TIMEOUT)? {
-                HostReply::Done => tracing::info!(host = %h.name, "host started its nodes"),
+                HostReply::Done | HostReply::LinkSamples(..) => {
+                    tracing::info!(host = %h.name, "host started its nodes")
+                }
                 HostReply::Refused(why) => bail!("host `{}` refused the group: {why}", h.name),
             }
         }
         Ok(RemoteNodes {
             placed,
+            home: home.name.clone(),
             client,
-            _bridge: bridge,
+            _beating: beating,
+            bridge,
             _held: held,
             _session: session,
         })
+    }
+
+    /// When each other host's last beat arrived (`aisle_bus::clock::monotonic_ns`); a
+    /// host not heard yet is absent, and so is this one (its own beats come back).
+    pub fn beats(&self) -> BTreeMap<String, u64> {
+        let mut beats = self.client.beats();
+        beats.remove(&self.home);
+        beats
     }
 
     /// The host that runs `kind`, when not this one.
@@ -130,7 +151,7 @@ impl RemoteNodes {
 
     fn ask(&self, host: &str, request: HostRequest) -> Result<(), String> {
         match self.client.request(host, &request, REQUEST_TIMEOUT) {
-            Ok(HostReply::Done) => Ok(()),
+            Ok(HostReply::Done | HostReply::LinkSamples(..)) => Ok(()),
             Ok(HostReply::Refused(why)) => Err(format!("host `{host}`: {why}")),
             Err(e) => Err(e.to_string()),
         }
@@ -153,6 +174,37 @@ impl RemoteNodes {
         let exit = self.client.next_exit()?;
         let kind = NodeKind::from_name(&exit.node)?;
         Some((kind, ExitStatus::from_raw(exit.status)))
+    }
+
+    /// The samples that crossed to each host (this one's link, and every other host's
+    /// on request, but those `skip` names: cut off), as `(from, to, sample)`; a host
+    /// that does not answer is said once.
+    pub fn link_samples(&self, skip: impl Fn(&str) -> bool) -> Vec<(String, String, LinkSample)> {
+        let from = |s: &LinkSample| {
+            let node = NodeKind::from_u32(s.source).map_or("?", |k| k.name());
+            self.placed.get(node).unwrap_or(&self.home).clone()
+        };
+        let mut all = Vec::new();
+        let mut keep = |to: &str, samples: Vec<LinkSample>, dropped: u64| {
+            if dropped > 0 {
+                tracing::warn!("link latency on host `{to}`: {dropped} samples not kept");
+            }
+            all.extend(samples.into_iter().map(|s| (from(&s), to.to_string(), s)));
+        };
+        let (mine, dropped) = self.bridge.take_samples();
+        keep(&self.home, mine, dropped);
+        let hosts: std::collections::BTreeSet<&String> = self.placed.values().collect();
+        for h in hosts.into_iter().filter(|h| !skip(h)) {
+            match self
+                .client
+                .request(h, &HostRequest::LinkSamples, REQUEST_TIMEOUT)
+            {
+                Ok(HostReply::LinkSamples(samples, dropped)) => keep(h, samples, dropped),
+                Ok(other) => tracing::warn!("host `{h}` answered {other:?} for its link samples"),
+                Err(e) => tracing::warn!("no link samples from host `{h}`: {e}"),
+            }
+        }
+        all
     }
 
     /// Asks every host to stop its nodes (each waits `grace` before it kills them).

@@ -23,6 +23,24 @@ pub struct ReferencePath {
     pub poses: Vec<[f64; 4]>,
 }
 
+/// A link to another host that went down in a spread run (`session::link_watch`): the
+/// times count from the host's last beat before it, which is at or before the cut.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct LinkOutage {
+    pub host: String,
+    /// Sim time when it was detected.
+    pub at_s: f64,
+    pub detected_after_s: f64,
+    /// Until the first ground-truth robot state at rest that stayed at rest while the
+    /// link was down (`None`: not at rest before it came back).
+    pub at_rest_after_s: Option<f64>,
+    /// Until the host's first beat after it (`None`: it did not come back).
+    pub down_s: Option<f64>,
+    /// From that beat to the first ground-truth robot state in motion.
+    #[serde(default)]
+    pub moving_after_s: Option<f64>,
+}
+
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct RunReport {
     pub success: bool,
@@ -44,6 +62,9 @@ pub struct RunReport {
     pub replans: u32,
     /// Node restarts after a crash or a missed heartbeat deadline.
     pub restarts: u32,
+    /// Links to other hosts that went down (a spread run).
+    #[serde(default)]
+    pub link_outages: Vec<LinkOutage>,
     pub legs: Vec<LegResult>,
     /// One row per stage and end to end (`aisle_tools::latency`: nearest-rank
     /// quantiles, budgets from `budgets.toml`).
@@ -92,6 +113,19 @@ impl RunReport {
         ));
         for e in &self.collision_events {
             out.push_str(&format!("  {e}\n"));
+        }
+        for o in &self.link_outages {
+            let opt =
+                |v: Option<f64>, none: &str| v.map_or(none.to_string(), |v| format!("{v:.3} s"));
+            out.push_str(&format!(
+                "  link to host `{}` lost at t = {:.1} s: detected {:.3} s, robot at rest {}, back {} after its last beat; moving again {} after that\n",
+                o.host,
+                o.at_s,
+                o.detected_after_s,
+                opt(o.at_rest_after_s, "never"),
+                opt(o.down_s, "never"),
+                opt(o.moving_after_s, "never"),
+            ));
         }
         for (i, l) in self.legs.iter().enumerate() {
             out.push_str(&format!(

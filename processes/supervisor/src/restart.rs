@@ -10,6 +10,9 @@ use std::collections::BTreeMap;
 /// late heartbeat never kills a node.
 const MIN_REALTIME_TIMEOUT_S: f64 = 0.15;
 
+/// Shortest link silence that counts as a cut: three beats of a host daemon.
+const MIN_LINK_SILENT_S: f64 = 0.06;
+
 #[derive(Debug, Clone, Copy, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Policy {
@@ -52,6 +55,29 @@ pub struct RestartConfig {
     pub default: Policy,
     #[serde(default)]
     pub node: BTreeMap<String, PolicyOverride>,
+    /// A spread run's links to other hosts (`aisle run --hosts`).
+    #[serde(default)]
+    pub link: LinkPolicy,
+}
+
+/// When a link to another host counts as down, and how long it may stay down.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LinkPolicy {
+    /// A host whose daemon beat (every 20 ms) is silent this long is cut off: the robot
+    /// stops and its nodes are held, not declared hung.
+    pub silent_s: f64,
+    /// A link down this long ends the run as a failure naming the host.
+    pub down_limit_s: f64,
+}
+
+impl Default for LinkPolicy {
+    fn default() -> Self {
+        LinkPolicy {
+            silent_s: 0.1,
+            down_limit_s: 10.0,
+        }
+    }
 }
 
 impl Validate for RestartConfig {
@@ -67,6 +93,12 @@ impl Validate for RestartConfig {
                 format!("no node `{name}`; nodes are {}", names.join(", ")),
             ));
         }
+        checks::at_least("link.silent_s", self.link.silent_s, MIN_LINK_SILENT_S)?;
+        checks::at_least(
+            "link.down_limit_s",
+            self.link.down_limit_s,
+            self.link.silent_s,
+        )?;
         for kind in NodeKind::LAUNCHED {
             let p = self.policy(kind);
             let key = |field: &str| {
@@ -168,6 +200,7 @@ mod tests {
         let shipped = aisle_config::testing::shipped("restart.toml");
         let cfg = aisle_config::load::<RestartConfig>(&shipped).unwrap();
         assert!(cfg.policy(NodeKind::Lidar).max_restarts >= 1);
+        assert!(cfg.link.silent_s < cfg.link.down_limit_s);
         let text = "[default]\nmax_restarts = 1\nwindow_s = 5.0\nheartbeat_timeout_s = 2.0\n[node.lidar]\nmax_restarts = 4\n";
         let p = std::env::temp_dir().join(format!("aisle-restart-{}.toml", std::process::id()));
         std::fs::write(&p, text).unwrap();
@@ -187,6 +220,24 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("node.lidar.realtime_heartbeat_timeout_s"), "{e}");
+        std::fs::write(
+            &p,
+            format!("{text}[link]\nsilent_s = 0.01\ndown_limit_s = 5.0\n"),
+        )
+        .unwrap();
+        let e = aisle_config::load::<RestartConfig>(&p)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("link.silent_s"), "{e}");
+        std::fs::write(
+            &p,
+            format!("{text}[link]\nsilent_s = 0.2\ndown_limit_s = 0.1\n"),
+        )
+        .unwrap();
+        let e = aisle_config::load::<RestartConfig>(&p)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("link.down_limit_s"), "{e}");
         std::fs::write(&p, text.replace("[node.lidar]", "[node.lidr]")).unwrap();
         let e = aisle_config::load::<RestartConfig>(&p)
             .unwrap_err()

@@ -5,6 +5,7 @@
 //! - [`run_config`]: everything loaded and checked before anything is launched.
 //! - [`startup`]: the instance, the supervisor's ports, the launched group.
 //! - [`health`]: the children's liveness, restarts and readiness.
+//! - [`link_watch`]: the links to other hosts (a spread run): cut off, back, outages.
 //! - [`retained_state`]: the state a restarted node resumes from.
 //! - [`tick_loop`]: the loop over the simulator's ticks and the lockstep protocol.
 //! - [`actions`]: the mission's actions carried out on the bus.
@@ -14,6 +15,7 @@
 mod actions;
 mod collision;
 mod health;
+mod link_watch;
 mod retained_state;
 mod run_config;
 mod shutdown;

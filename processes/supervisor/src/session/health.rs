@@ -2,11 +2,12 @@
 //! against the policy, readiness. Kept apart from the data ports so that a wait on a
 //! port can watch the children at the same time. Knows nothing of the mission.
 
+use super::link_watch::{LinkEvent, LinkWatch};
 use super::retained_state::RetainedState;
 use super::{POLL, RunAborted, Session};
 use crate::launch::{ProcessGroup, describe};
 use crate::restart::{RestartBook, RestartConfig};
-use aisle_bus::{Bus, BusError, Publisher, Stamp, Subscriber, WaitOutcome};
+use aisle_bus::{Bus, BusError, Publisher, Stamp, Subscriber, WaitOutcome, clock};
 use aisle_messages::{
     ControllerGoal, GroupMembers, Heartbeat, InstanceInfo, MapperControl, NodeKind, NodeState,
     SimCommand, SimCommandKind, TickMode, write_name,
@@ -16,6 +17,9 @@ use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
 const READY_TIMEOUT: Duration = Duration::from_secs(60);
+/// Shortest time a host's nodes get to settle after its link came back (see
+/// [`NodeHealth::rejoining`]).
+const SETTLE_MIN_S: f64 = 1.0;
 
 /// The process group, what the supervisor knows of each child's health, and the
 /// supervisor's own state publishers (which a (re)joining node must be connected to).
@@ -48,6 +52,17 @@ pub(super) struct NodeHealth {
     pub declared_dead: Vec<(NodeKind, f64)>,
     /// Nodes killed as hung, not reaped yet (so their death is declared once).
     pub hung: Vec<NodeKind>,
+    /// The links to other hosts (a spread run).
+    pub links: LinkWatch,
+    /// Restarted nodes on other hosts not ready yet: their retained state is sent again
+    /// at every check, because a sample's history does not cross the link (a late
+    /// subscriber over there gets only what is published after it joined).
+    pub resuming: Vec<NodeKind>,
+    /// Nodes of a host whose link came back, until when they settle: the link takes a
+    /// while to flow steadily again (TCP's retransmissions back off while it is down,
+    /// up to about as long as it was down), so until then a silence of theirs counts
+    /// against `link.down_limit_s`, not their heartbeat timeout.
+    pub rejoining: HashMap<NodeKind, Instant>,
     /// Which heartbeat timeout applies to ready nodes.
     pub mode: TickMode,
     /// The last `SimCommand` id sent (ids only grow; the simulator applies each once).
@@ -64,6 +79,20 @@ impl NodeHealth {
         self.drain_heartbeats()?;
         self.retained.copy_newest()?;
         self.restart_dead()?;
+        self.resuming.retain(|k| !self.ready.contains(k));
+        for kind in self.resuming.clone() {
+            self.retained.republish(kind)?;
+        }
+        self.watch_links()?;
+        if let Some((host, down_s)) = self
+            .links
+            .overdue(clock::monotonic_ns(), &self.restart.link)
+        {
+            return Err(RunAborted::Error(anyhow!(
+                "the link to host `{host}` has been down for {down_s:.1} s, longer than config/restart.toml link.down_limit_s = {} s",
+                self.restart.link.down_limit_s
+            )));
+        }
         self.kill_silent();
         self.stop_for_the_dead()?;
         self.connect_joiners()
@@ -72,6 +101,9 @@ impl NodeHealth {
     /// The part of [`NodeHealth::check`] that must not wait for the next tick: hangs
     /// declared, and the robot stopped for them. Runs between the sleeps of every wait.
     fn watch(&mut self) {
+        if let Err(e) = self.watch_links() {
+            tracing::error!("could not stop the robot: {e:?}");
+        }
         if self.drain_heartbeats().is_ok() {
             self.kill_silent();
         }
@@ -175,6 +207,9 @@ impl NodeHealth {
                     self.group
                         .spawn(kind, self.running)
                         .map_err(|e| RunAborted::Error(anyhow!(e)))?;
+                    if self.running && !self.group.is_local(kind) {
+                        self.resuming.push(kind);
+                    }
                     self.last_seen.insert(kind, Instant::now());
                     self.restarted.push(kind);
                 }
@@ -205,6 +240,9 @@ impl NodeHealth {
         for kind in watched {
             let policy = self.restart.policy(kind);
             let timeout_s = match (self.ready.contains(&kind), self.mode) {
+                _ if self.rejoining.get(&kind).is_some_and(|until| now < *until) => {
+                    self.restart.link.down_limit_s
+                }
                 (false, _) => policy.start_timeout_s,
                 (true, TickMode::Lockstep) => policy.heartbeat_timeout_s,
                 (true, TickMode::Realtime) => policy.realtime_heartbeat_timeout_s,
@@ -212,6 +250,10 @@ impl NodeHealth {
             let Some(silent) = self.last_seen.get(&kind).map(|t| now.duration_since(*t)) else {
                 continue;
             };
+            if self.cut_off(kind) {
+                // Its heartbeats cannot arrive: held, not hung.
+                continue;
+            }
             if silent.as_secs_f64() > timeout_s {
                 tracing::warn!(
                     "node `{}` sent no heartbeat for {:.2} s (timeout {timeout_s} s): declared hung, killing it",
@@ -225,6 +267,54 @@ impl NodeHealth {
                 self.last_seen.insert(kind, now);
             }
         }
+    }
+
+    /// Whether `kind` runs on a host that is cut off now.
+    fn cut_off(&self, kind: NodeKind) -> bool {
+        let host = self.group.remote().and_then(|r| r.host_of(kind));
+        host.is_some_and(|h| self.links.is_down(h))
+    }
+
+    /// A spread run: notes hosts cut off and back. Realtime: the robot stops at once
+    /// when a host is cut off (its nodes' outputs cannot arrive); it moves again on
+    /// fresh trajectories once the host is back. The cut-off nodes' heartbeats count
+    /// from their host's return.
+    fn watch_links(&mut self) -> Result<(), BusError> {
+        let Some(beats) = self.group.remote().map(|r| r.beats()) else {
+            return Ok(());
+        };
+        if !self.running {
+            return Ok(());
+        }
+        let stamp_s = self.stamp.stamp_ns as f64 * 1e-9;
+        let now = clock::monotonic_ns();
+        for event in self.links.update(&beats, now, &self.restart.link, stamp_s) {
+            match event {
+                LinkEvent::Lost { host, silent_s } => {
+                    tracing::warn!(
+                        "t = {stamp_s:.2} s: the link to host `{host}` is down (nothing from it for {silent_s:.2} s): robot stopped, its nodes held until it is back"
+                    );
+                    if self.mode == TickMode::Realtime {
+                        self.send_sim_command(self.stamp, SimCommandKind::Stop, None)?;
+                    }
+                }
+                LinkEvent::Back { host, down_s } => {
+                    tracing::warn!(
+                        "t = {stamp_s:.2} s: the link to host `{host}` is back after {down_s:.2} s"
+                    );
+                    let now = Instant::now();
+                    let until = now + Duration::from_secs_f64(down_s.max(SETTLE_MIN_S));
+                    for kind in self.expected.clone() {
+                        let remote = self.group.remote().and_then(|r| r.host_of(kind));
+                        if remote == Some(host.as_str()) {
+                            self.last_seen.insert(kind, now);
+                            self.rejoining.insert(kind, until);
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Announces who is in the group: the supervisor and the expected nodes.

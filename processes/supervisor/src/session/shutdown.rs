@@ -27,10 +27,25 @@ impl Session {
             let _ = self.sim_command(SimCommandKind::Stop, None);
         }
         let processes = self.usage();
+        self.link_latency();
         self.health.group.stop(GRACE);
         let mut report = self.report(opts, config, wall_start);
         report.processes = processes;
         report
+    }
+
+    /// A spread run: the one-way latency of every topic that crossed, a series per
+    /// direction and topic (`link a>b robot_state`), beside the stages'.
+    fn link_latency(&mut self) {
+        let Some(remote) = self.health.group.remote() else {
+            return;
+        };
+        let links = &self.health.links;
+        for (from, to, s) in remote.link_samples(|h| links.is_down(h)) {
+            let topic = s.topic.strip_prefix("aisle/").unwrap_or(&s.topic);
+            self.book
+                .record(&format!("link {from}>{to} {topic}"), s.tick, s.ns);
+        }
     }
 
     /// Every live node's resource usage, and the supervisor's, before they stop.
@@ -68,6 +83,7 @@ impl Session {
             collision_events: self.collisions.events.clone(),
             replans: m.replans_total(),
             restarts: self.health.restarts.total(),
+            link_outages: self.health.links.report(),
             legs: m.results.clone(),
             latency: latency.stages,
             tick_release: latency.tick_release,

@@ -95,6 +95,9 @@ impl Session {
             restarted: Vec::new(),
             declared_dead: Vec::new(),
             hung: Vec::new(),
+            links: Default::default(),
+            rejoining: Default::default(),
+            resuming: Vec::new(),
             mode: opts.mode,
             command_id: 0,
             stamp: aisle_bus::Stamp::default(),
@@ -229,6 +232,7 @@ fn launch_group(
             mode: opts.mode as u32,
             dt_ns,
             controller_every: every,
+            down_limit_s: config.restart.link.down_limit_s,
         };
         let remote = RemoteNodes::start(&spread, &expected)?;
         group.attach_remote(remote);

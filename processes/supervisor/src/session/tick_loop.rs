@@ -164,6 +164,9 @@ impl Session {
             record_done(&mut self.book, &d);
         }
         if let Some(rs) = self.ports.robot.latest()? {
+            self.health
+                .links
+                .note_robot(rs.twist, rs.header.publish_wall_ns);
             let pose: Pose2 = rs.pose.into();
             if !self.driven.is_empty() {
                 self.path_length += pose.distance(&self.pose);
