@@ -13,9 +13,8 @@ mod support;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::time::Duration;
-use support::netns::Hosts;
-use support::*;
+use support::TestDir;
+use support::netns::{Hosts, spread_run};
 
 fn checkout() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -113,21 +112,10 @@ fn a_zenoh_subscriber_on_a_third_host_decodes_the_bridged_robot_state() {
         return;
     }
     let hosts = Hosts::new(3);
-    let dir = TestDir::new("hosts-py");
-    let (run_b, run_c) = (TestDir::new("hosts-py-b"), TestDir::new("hosts-py-c"));
-    let (a, b) = (Hosts::addr(0), Hosts::addr(1));
-    let file = dir.path("hosts.toml");
-    std::fs::write(
-        &file,
-        format!(
-            "[[host]]\nname = \"a\"\nlisten = [\"tcp/{a}:7447\"]\nnodes = [\"supervisor\", \"simulator\"]\n\n\
-             [[host]]\nname = \"b\"\nlisten = [\"tcp/{b}:7447\"]\nconnect = [\"tcp/{a}:7447\"]\n\
-             nodes = [\"lidar\", \"mapper\", \"global_planner\", \"teb_controller\"]\n"
-        ),
-    )
-    .unwrap();
+    let run_c = TestDir::new("hosts-py-c");
     let script = checkout().join("python/examples/zenoh_robot_state.py");
-    let endpoint = format!("tcp/{a}:7447");
+    let endpoint = format!("tcp/{}:7447", Hosts::addr(0));
+    // Started first, so it is subscribed before the run's first robot states.
     let watcher = hosts
         .command(
             2,
@@ -145,49 +133,17 @@ fn a_zenoh_subscriber_on_a_third_host_decodes_the_bridged_robot_state() {
         )
         .spawn()
         .unwrap();
-    let (file_s, config) = (file.to_str().unwrap(), config_dir());
-    let config_s = config.to_str().unwrap();
-    let mut daemon = hosts.aisle(
-        1,
-        &run_b.run_dir(),
-        &[
-            "host",
-            "--name",
-            "b",
-            "--hosts",
-            file_s,
-            "--config-dir",
-            config_s,
-        ],
-    );
-    let report = dir.path("report.json");
-    let run = hosts.aisle(
-        0,
-        &dir.run_dir(),
-        &[
-            "run",
-            "--quiet",
-            "--hosts",
-            file_s,
-            "--config-dir",
-            config_s,
-            "--report",
-            report.to_str().unwrap(),
-        ],
-    );
-    let out = run.wait_with_output().unwrap();
+    let run = spread_run(&hosts, "hosts-py", &[], &[], None);
     let seen = watcher.wait_with_output().unwrap();
-    signal_and_reap(&mut daemon, libc::SIGTERM, Duration::from_secs(10));
     let (stdout, stderr) = (
         String::from_utf8_lossy(&seen.stdout),
         String::from_utf8_lossy(&seen.stderr),
     );
     assert!(seen.status.success(), "watcher: {stdout}{stderr}");
-    let text = std::fs::read_to_string(&report).unwrap_or_else(|_| {
-        panic!("no report: {}", String::from_utf8_lossy(&out.stderr));
+    let r = run.report.unwrap_or_else(|| {
+        panic!("no report: {}", String::from_utf8_lossy(&run.out.stderr));
     });
-    let r: aisle_supervisor::report::RunReport = serde_json::from_str(&text).unwrap();
-    assert!(r.success, "{:?}", r.failure);
+    assert!(r.success, "{:?}\nhost b: {}", r.failure, run.b_err);
     assert!(stdout.starts_with("key aisle/iox2/v1/channel/"), "{stdout}");
     let lines = parse_lines(&stdout);
     assert_eq!(lines.len(), 100, "{stdout}");

@@ -8,8 +8,10 @@
 //! Needs root and `ip netns`: [`unavailable`] says why not, and the tests skip with that
 //! reason (CI runs as root).
 
-use std::path::Path;
+use super::{TestDir, config_dir, signal_and_reap, stderr_reader};
+use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
+use std::time::Duration;
 
 /// Why network-namespace hosts cannot be made here, if they cannot.
 pub fn unavailable() -> Option<String> {
@@ -155,4 +157,97 @@ impl Drop for Hosts {
             let _ = Command::new("ip").args(["netns", "del", n]).status();
         }
     }
+}
+
+/// The acceptance placement: simulator and supervisor on `a`, the pipeline on `b`.
+pub fn placement_file(dir: &TestDir) -> PathBuf {
+    let (a, b) = (Hosts::addr(0), Hosts::addr(1));
+    let text = format!(
+        "[[host]]\nname = \"a\"\nlisten = [\"tcp/{a}:7447\"]\nnodes = [\"supervisor\", \"simulator\"]\n\n\
+         [[host]]\nname = \"b\"\nlisten = [\"tcp/{b}:7447\"]\nconnect = [\"tcp/{a}:7447\"]\n\
+         nodes = [\"lidar\", \"mapper\", \"global_planner\", \"teb_controller\"]\n"
+    );
+    let p = dir.path("hosts.toml");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// How long the link-cut test keeps host `b` cut off.
+pub const CUT: Duration = Duration::from_secs(2);
+
+/// A host daemon that is stopped (SIGTERM, then SIGKILL) when dropped.
+pub struct Daemon(pub Child);
+
+impl Drop for Daemon {
+    fn drop(&mut self) {
+        signal_and_reap(&mut self.0, libc::SIGTERM, Duration::from_secs(10));
+    }
+}
+
+/// What one spread run gave: the supervisor's output, host `b`'s stderr, the report
+/// (when the run wrote one).
+pub struct Spread {
+    pub out: std::process::Output,
+    pub b_err: String,
+    pub report: Option<aisle_supervisor::report::RunReport>,
+}
+
+/// The seed mission with the acceptance placement on hosts 0 (`a`) and 1 (`b`) of
+/// `hosts`; `b_args` go to `aisle host` on `b`, `run_args` to `aisle run` on `a`. `cut`:
+/// host `b`'s link goes down this long after the run started, for [`CUT`].
+pub fn spread_run(
+    hosts: &Hosts,
+    name: &str,
+    b_args: &[&str],
+    run_args: &[&str],
+    cut: Option<Duration>,
+) -> Spread {
+    let dir = TestDir::new(name);
+    // A second short run directory: iceoryx2 limits the length of an instance root.
+    let run_b = TestDir::new(&format!("{name}-b"));
+    let file = placement_file(&dir);
+    let config = config_dir();
+    let (file_s, config_s) = (file.to_str().unwrap(), config.to_str().unwrap());
+    let mut args = vec![
+        "host",
+        "--name",
+        "b",
+        "--hosts",
+        file_s,
+        "--config-dir",
+        config_s,
+    ];
+    args.extend_from_slice(b_args);
+    let mut b = Daemon(hosts.aisle(1, &run_b.run_dir(), &args));
+    let b_err = stderr_reader(&mut b.0);
+    let report = dir.path("report.json");
+    let mut args = vec![
+        "run",
+        "--quiet",
+        "--hosts",
+        file_s,
+        "--config-dir",
+        config_s,
+        "--report",
+        report.to_str().unwrap(),
+    ];
+    args.extend_from_slice(run_args);
+    let run = hosts.aisle(0, &dir.run_dir(), &args);
+    let out = std::thread::scope(|s| {
+        if let Some(at) = cut {
+            s.spawn(move || {
+                std::thread::sleep(at);
+                hosts.set_link(1, false);
+                std::thread::sleep(CUT);
+                hosts.set_link(1, true);
+            });
+        }
+        run.wait_with_output().unwrap()
+    });
+    drop(b);
+    let b_err = b_err.join().unwrap();
+    let report = std::fs::read_to_string(&report)
+        .ok()
+        .map(|t| serde_json::from_str(&t).unwrap());
+    Spread { out, b_err, report }
 }
