@@ -82,6 +82,7 @@ impl NodeHealth {
         self.resuming.retain(|k| !self.ready.contains(k));
         for kind in self.resuming.clone() {
             self.retained.republish(kind)?;
+            self.resend_orders(kind)?;
         }
         self.watch_links()?;
         if let Some((host, down_s)) = self
@@ -96,6 +97,19 @@ impl NodeHealth {
         self.kill_silent();
         self.stop_for_the_dead()?;
         self.connect_joiners()
+    }
+
+    /// The supervisor's standing orders `kind` reads, sent again through its own
+    /// publishers (see `retained_state::ORDERS`).
+    fn resend_orders(&mut self, kind: NodeKind) -> Result<(), RunAborted> {
+        for (name, bytes) in self.retained.orders_for(kind) {
+            if name == aisle_messages::topics::CONTROLLER_GOAL.name {
+                self.goal.publish_bytes(bytes)?;
+            } else if name == aisle_messages::topics::MAPPER_CONTROL.name {
+                self.mapper_control.publish_bytes(bytes)?;
+            }
+        }
+        Ok(())
     }
 
     /// The part of [`NodeHealth::check`] that must not wait for the next tick: hangs
