@@ -7,8 +7,8 @@ Needs only `pip install eclipse-zenoh` and this checkout's `python/aisle/_genera
 
     python3 zenoh_robot_state.py --connect tcp/10.20.0.1:7447 --count 20
 
-Each line: `tick <n> stamp_ns <ns> pose <x> <y> <theta>`, the floats in Python's hex
-notation (exact). Exits 0 after `--count` samples, 1 when the offer or the samples do
+Each line: `tick <n> stamp_ns <ns> pose <x> <y> <theta>`, the floats as `repr` writes
+them (the shortest text that reads back to the same bits). Exits 0 after `--count` samples, 1 when the offer or the samples do
 not arrive within `--timeout` seconds, 2 on a bad argument.
 
 What the link puts on Zenoh (iceoryx2 0.10's Zenoh carrier), under the group's
@@ -113,7 +113,7 @@ def main():
             p = s.pose
             lines.append(
                 f"tick {s.header.tick} stamp_ns {s.header.stamp_ns} "
-                f"pose {p.x.hex()} {p.y.hex()} {p.theta.hex()}"
+                f"pose {p.x!r} {p.y!r} {p.theta!r}"
             )
             if len(lines) >= args.count:
                 done.set()

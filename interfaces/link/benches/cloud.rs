@@ -99,17 +99,16 @@ fn across<M: Message>(c: &mut Criterion, name: &str, topic: Topic<M>, fill: fn(&
     );
 }
 
-/// CPU time this process has used, seconds.
+/// CPU time this process has used (all threads), seconds.
 fn process_cpu() -> f64 {
-    // Fields 14 and 15 of /proc/self/stat: user and system time in clock ticks.
-    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    let after = stat.rsplit_once(')').map_or("", |(_, r)| r);
-    let f: Vec<f64> = after
-        .split_whitespace()
-        .filter_map(|v| v.parse().ok())
-        .collect();
-    // After the command name: state (not a number), then fields 4.. as numbers.
-    (f.get(10).unwrap_or(&0.0) + f.get(11).unwrap_or(&0.0)) / 100.0
+    // SAFETY: getrusage writes only into the zeroed struct it is given.
+    let u = unsafe {
+        let mut u: libc::rusage = std::mem::zeroed();
+        libc::getrusage(libc::RUSAGE_SELF, &mut u);
+        u
+    };
+    let secs = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    secs(u.ru_utime) + secs(u.ru_stime)
 }
 
 /// What two idle links (one per host) cost: CPU time over 3 s with nothing to carry.

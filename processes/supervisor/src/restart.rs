@@ -211,37 +211,24 @@ mod tests {
             cfg.policy(NodeKind::Mapper).realtime_heartbeat_timeout_s,
             0.2
         );
-        std::fs::write(
-            &p,
-            text.replace("max_restarts = 4", "realtime_heartbeat_timeout_s = 0.05"),
-        )
-        .unwrap();
-        let e = aisle_config::load::<RestartConfig>(&p)
-            .unwrap_err()
-            .to_string();
+        // The error a file of `t` gives.
+        let refused = |t: &str| {
+            std::fs::write(&p, t).unwrap();
+            aisle_config::load::<RestartConfig>(&p)
+                .unwrap_err()
+                .to_string()
+        };
+        let e = refused(&text.replace("max_restarts = 4", "realtime_heartbeat_timeout_s = 0.05"));
         assert!(e.contains("node.lidar.realtime_heartbeat_timeout_s"), "{e}");
-        std::fs::write(
-            &p,
-            format!("{text}[link]\nsilent_s = 0.01\ndown_limit_s = 5.0\n"),
-        )
-        .unwrap();
-        let e = aisle_config::load::<RestartConfig>(&p)
-            .unwrap_err()
-            .to_string();
+        let e = refused(&format!(
+            "{text}[link]\nsilent_s = 0.01\ndown_limit_s = 5.0\n"
+        ));
         assert!(e.contains("link.silent_s"), "{e}");
-        std::fs::write(
-            &p,
-            format!("{text}[link]\nsilent_s = 0.2\ndown_limit_s = 0.1\n"),
-        )
-        .unwrap();
-        let e = aisle_config::load::<RestartConfig>(&p)
-            .unwrap_err()
-            .to_string();
+        let e = refused(&format!(
+            "{text}[link]\nsilent_s = 0.2\ndown_limit_s = 0.1\n"
+        ));
         assert!(e.contains("link.down_limit_s"), "{e}");
-        std::fs::write(&p, text.replace("[node.lidar]", "[node.lidr]")).unwrap();
-        let e = aisle_config::load::<RestartConfig>(&p)
-            .unwrap_err()
-            .to_string();
+        let e = refused(&text.replace("[node.lidar]", "[node.lidr]"));
         assert!(e.contains("node.lidr"), "{e}");
         let _ = std::fs::remove_file(&p);
     }
