@@ -7,8 +7,8 @@ import ctypes
 import enum
 from typing import NamedTuple
 
-SCHEMA_HASH = 0x4321894a40cac04d
-SCHEMA_HASH_HEX = "4321894a40cac04d"
+SCHEMA_HASH = 0xcf650ec1e502c39e
+SCHEMA_HASH_HEX = "cf650ec1e502c39e"
 
 # Capacities and flag bits.
 STAGE_CONTROLLER = 1
@@ -21,7 +21,8 @@ MAX_DOCK_PARTS = 8
 MAX_PLACED_PARTS = 32
 MAX_PATH_POSES = 4096
 MAX_COMMANDS = 512
-MAX_BODIES = 64
+MAX_BODIES = 256
+MAX_CONTACTS = 32
 MAX_GROUP_MEMBERS = 32
 NAME_LEN = 32
 TEXT_LEN = 192
@@ -219,17 +220,18 @@ class RectMsg(ctypes.Structure):
 
 
 class BodyTruth(ctypes.Structure):
-    """`aisle.BodyTruth.v2`: 88 bytes, align 8."""
+    """`aisle.BodyTruth.v3`: 88 bytes, align 8."""
 
-    TYPE_NAME = "aisle.BodyTruth.v2"
+    TYPE_NAME = "aisle.BodyTruth.v3"
     _fields_ = [
         ("name", ctypes.c_uint8 * 32),
         ("pose", Pose2Msg),
         ("size", ctypes.c_double * 3),
+        ("index", ctypes.c_uint32),
         ("is_static", ctypes.c_uint8),
         ("carried", ctypes.c_uint8),
         ("in_contact", ctypes.c_uint8),
-        ("_pad", ctypes.c_uint8 * 5),
+        ("_pad", ctypes.c_uint8),
     ]
 
     @classmethod
@@ -293,15 +295,15 @@ class RobotState(ctypes.Structure):
 
 
 class WorldTruth(ctypes.Structure):
-    """`aisle.WorldTruth.v2`: 5696 bytes, align 8."""
+    """`aisle.WorldTruth.v3`: 22592 bytes, align 8."""
 
-    TYPE_NAME = "aisle.WorldTruth.v2"
+    TYPE_NAME = "aisle.WorldTruth.v3"
     _fields_ = [
         ("header", Header),
         ("len", ctypes.c_uint32),
         ("collisions", ctypes.c_uint32),
         ("min_clearance", ctypes.c_double),
-        ("bodies", BodyTruth * 64),
+        ("bodies", BodyTruth * 256),
     ]
 
     @classmethod
@@ -506,9 +508,9 @@ class TimedTwistMsg(ctypes.Structure):
 
 
 class SimState(ctypes.Structure):
-    """`aisle.SimState.v2`: 14112 bytes, align 8."""
+    """`aisle.SimState.v3`: 18792 bytes, align 8."""
 
-    TYPE_NAME = "aisle.SimState.v2"
+    TYPE_NAME = "aisle.SimState.v3"
     _fields_ = [
         ("header", Header),
         ("next_tick", ctypes.c_uint64),
@@ -531,8 +533,10 @@ class SimState(ctypes.Structure):
         ("timeline_len", ctypes.c_uint32),
         ("timeline_start_ns", ctypes.c_uint64),
         ("timeline_expiry_ns", ctypes.c_uint64),
-        ("body_poses", Pose2Msg * 64),
-        ("in_contact", ctypes.c_uint8 * 64),
+        ("contacts_len", ctypes.c_uint32),
+        ("contacts", ctypes.c_uint32 * 32),
+        ("_pad_contacts", ctypes.c_uint32),
+        ("body_poses", Pose2Msg * 256),
         ("timeline", TimedTwistMsg * 512),
     ]
 
@@ -638,11 +642,11 @@ LAYOUTS = {
     TimedCommandMsg: (24, 8, (("t", 0, 8), ("v", 8, 8), ("w", 16, 8), )),
     TimedPoseMsg: (32, 8, (("t", 0, 8), ("x", 8, 8), ("y", 16, 8), ("theta", 24, 8), )),
     RectMsg: (48, 8, (("pose", 0, 24), ("length", 24, 8), ("width", 32, 8), ("valid", 40, 1), ("_pad", 41, 7), )),
-    BodyTruth: (88, 8, (("name", 0, 32), ("pose", 32, 24), ("size", 56, 24), ("is_static", 80, 1), ("carried", 81, 1), ("in_contact", 82, 1), ("_pad", 83, 5), )),
+    BodyTruth: (88, 8, (("name", 0, 32), ("pose", 32, 24), ("size", 56, 24), ("index", 80, 4), ("is_static", 84, 1), ("carried", 85, 1), ("in_contact", 86, 1), ("_pad", 87, 1), )),
     Tick: (72, 8, (("header", 0, 48), ("dt_ns", 48, 8), ("mode", 56, 4), ("stages", 60, 4), ("seed", 64, 8), )),
     TickDone: (72, 8, (("header", 0, 48), ("node", 48, 4), ("status", 52, 4), ("compute_ns", 56, 8), ("cpu_ns", 64, 8), )),
     RobotState: (128, 8, (("header", 0, 48), ("pose", 48, 24), ("twist", 72, 16), ("wheel_speeds", 88, 16), ("carried_body", 104, 4), ("watchdog_stopped", 108, 4), ("collisions", 112, 4), ("_pad", 116, 4), ("active_goal_id", 120, 8), )),
-    WorldTruth: (5696, 8, (("header", 0, 48), ("len", 48, 4), ("collisions", 52, 4), ("min_clearance", 56, 8), ("bodies", 64, 5632), )),
+    WorldTruth: (22592, 8, (("header", 0, 48), ("len", 48, 4), ("collisions", 52, 4), ("min_clearance", 56, 8), ("bodies", 64, 22528), )),
     PointCloud: (1573000, 8, (("header", 0, 48), ("rows", 48, 4), ("cols", 52, 4), ("sensor_pose", 56, 48), ("robot_pose", 104, 24), ("carried_body", 128, 4), ("_pad", 132, 4), ("points", 136, 1572864), )),
     OccupancyGrid: (1048672, 8, (("header", 0, 48), ("kind", 48, 4), ("width", 52, 4), ("height", 56, 4), ("_pad", 60, 4), ("origin_x", 64, 8), ("origin_y", 72, 8), ("resolution", 80, 8), ("version", 88, 8), ("cells", 96, 1048576), )),
     MapperControl: (1688, 8, (("header", 0, 48), ("ignore", 48, 48), ("carried", 96, 48), ("placed_count", 144, 4), ("_pad", 148, 4), ("placed", 152, 1536), )),
@@ -652,7 +656,7 @@ LAYOUTS = {
     Trajectory: (28784, 8, (("header", 0, 48), ("goal_id", 48, 8), ("start_ns", 56, 8), ("len", 64, 4), ("poses_len", 68, 4), ("exit_flag", 72, 4), ("last_feasible_index", 76, 4), ("reached_goal", 80, 4), ("iterations", 84, 4), ("cost", 88, 8), ("solve_ns", 96, 8), ("max_violation", 104, 8), ("commands", 112, 12288), ("poses", 12400, 16384), )),
     ControllerBand: (20560, 8, (("header", 0, 48), ("goal_id", 48, 8), ("len", 56, 4), ("section", 60, 4), ("progress", 64, 8), ("detour_side", 72, 4), ("_pad", 76, 4), ("poses", 80, 16384), ("dts", 16464, 4096), )),
     TimedTwistMsg: (24, 8, (("offset_ns", 0, 8), ("v", 8, 8), ("w", 16, 8), )),
-    SimState: (14112, 8, (("header", 0, 48), ("next_tick", 48, 8), ("time_ns", 56, 8), ("pose", 64, 24), ("twist", 88, 16), ("wheels", 104, 16), ("watchdog_stopped", 120, 1), ("wheels_clamped", 121, 1), ("_pad", 122, 2), ("carried_body", 124, 4), ("carried_offset", 128, 24), ("collisions", 152, 8), ("min_clearance", 160, 8), ("last_command_id", 168, 8), ("last_trajectory_seq", 176, 8), ("last_trajectory_tick", 184, 8), ("last_stop_tick", 192, 8), ("bodies_len", 200, 4), ("timeline_len", 204, 4), ("timeline_start_ns", 208, 8), ("timeline_expiry_ns", 216, 8), ("body_poses", 224, 1536), ("in_contact", 1760, 64), ("timeline", 1824, 12288), )),
+    SimState: (18792, 8, (("header", 0, 48), ("next_tick", 48, 8), ("time_ns", 56, 8), ("pose", 64, 24), ("twist", 88, 16), ("wheels", 104, 16), ("watchdog_stopped", 120, 1), ("wheels_clamped", 121, 1), ("_pad", 122, 2), ("carried_body", 124, 4), ("carried_offset", 128, 24), ("collisions", 152, 8), ("min_clearance", 160, 8), ("last_command_id", 168, 8), ("last_trajectory_seq", 176, 8), ("last_trajectory_tick", 184, 8), ("last_stop_tick", 192, 8), ("bodies_len", 200, 4), ("timeline_len", 204, 4), ("timeline_start_ns", 208, 8), ("timeline_expiry_ns", 216, 8), ("contacts_len", 224, 4), ("contacts", 228, 128), ("_pad_contacts", 356, 4), ("body_poses", 360, 6144), ("timeline", 6504, 12288), )),
     SimCommand: (96, 8, (("header", 0, 48), ("command_id", 48, 8), ("kind", 56, 4), ("body_index", 60, 4), ("name", 64, 32), )),
     Heartbeat: (264, 8, (("header", 0, 48), ("node", 48, 4), ("state", 52, 4), ("pid", 56, 4), ("_pad", 60, 4), ("schema_hash", 64, 8), ("text", 72, 192), )),
     MissionStatus: (272, 8, (("header", 0, 48), ("state", 48, 4), ("segment", 52, 4), ("segments", 56, 4), ("replans", 60, 4), ("distance", 64, 8), ("text", 72, 192), ("_pad", 264, 8), )),

@@ -12,7 +12,8 @@ use crate::message;
 pub const MAX_CLOUD_ROWS: usize = 64;
 pub const MAX_CLOUD_COLS: usize = 2048;
 pub const MAX_CLOUD_POINTS: usize = MAX_CLOUD_ROWS * MAX_CLOUD_COLS;
-/// Occupancy grids up to 1024 x 1024 cells.
+/// Occupancy grids up to 1024 x 1024 cells, in any shape (`width * height` at most
+/// `MAX_GRID_CELLS`).
 pub const MAX_GRID_SIDE: usize = 1024;
 pub const MAX_GRID_CELLS: usize = MAX_GRID_SIDE * MAX_GRID_SIDE;
 /// Parts of a docking body a plan request can name (a rack's four legs, and more).
@@ -24,8 +25,12 @@ pub const MAX_PLACED_PARTS: usize = 4 * MAX_DOCK_PARTS;
 pub const MAX_PATH_POSES: usize = 4096;
 /// Command timelines (and predicted poses) up to 512 entries.
 pub const MAX_COMMANDS: usize = 512;
-/// Bodies in the ground-truth message.
-pub const MAX_BODIES: usize = 64;
+/// Entries of the ground-truth message: every body that can move (a scene may have any
+/// number of static ones, which never move and are not sent) and the static bodies in
+/// contact.
+pub const MAX_BODIES: usize = 256;
+/// Bodies in contact at once that `SimState` keeps.
+pub const MAX_CONTACTS: usize = 32;
 pub const NAME_LEN: usize = 32;
 pub const TEXT_LEN: usize = 192;
 
@@ -129,24 +134,28 @@ message!(
 
 crate::layout_struct!(
     /// A body of the world, from ground truth: name, pose, bounding box.
-    BodyTruth = "aisle.BodyTruth.v2" {
+    BodyTruth = "aisle.BodyTruth.v3" {
         name: [u8; NAME_LEN],
         pose: Pose2Msg,
         /// Bounding box of the body: length, width (body frame) and height.
         size: [f64; 3],
+        /// The body's index in the scene (`warehouse.toml` order; v3).
+        index: u32,
         is_static: u8,
         carried: u8,
         /// 1 while the robot (or the rack it carries) touches this body: a collision
         /// event is this flag turning on (v2; the supervisor names the body from it).
         in_contact: u8,
-        _pad: [u8; 5],
+        _pad: u8,
     }
 );
 
 message!(
-    /// Ground truth of every body, for metrics, rendering and tests only: navigation
-    /// processes must not subscribe to it.
-    WorldTruth = "aisle.WorldTruth.v2" size 5696 {
+    /// Ground truth for metrics, rendering and tests only: navigation processes must not
+    /// subscribe to it. `bodies` holds every body that can move (the non-static ones, in
+    /// scene order), then every static body in contact; the static ones never move, so
+    /// their poses are the scene's (v3: a scene may have any number of them).
+    WorldTruth = "aisle.WorldTruth.v3" size 22592 {
         header: Header,
         len: u32,
         collisions: u32,
@@ -334,7 +343,7 @@ message!(
     /// The simulator's whole state at the start of tick `next_tick`, published with
     /// history 1 before that tick's `RobotState`, so a restarted simulator resumes
     /// bit for bit: every float is copied, none recomputed.
-    SimState = "aisle.SimState.v2" size 14112 {
+    SimState = "aisle.SimState.v3" size 18792 {
         header: Header,
         next_tick: u64,
         time_ns: u64,
@@ -358,13 +367,18 @@ message!(
         /// The tick stamped on the last `Stop` applied (u64::MAX: none): trajectories of
         /// that tick or older were computed before it and are not driven.
         last_stop_tick: u64,
+        /// How many `body_poses` hold poses: the scene's non-static bodies.
         bodies_len: u32,
         timeline_len: u32,
         timeline_start_ns: u64,
         /// When the timeline stops being in force (its successor overdue); u64::MAX: never.
         timeline_expiry_ns: u64,
+        /// Scene indices of the bodies in contact (v3: static ones too, any scene size).
+        contacts_len: u32,
+        contacts: [u32; MAX_CONTACTS],
+        _pad_contacts: u32,
+        /// Poses of the bodies that can move (the non-static ones, in scene order; v3).
         body_poses: [Pose2Msg; MAX_BODIES],
-        in_contact: [u8; MAX_BODIES],
         timeline: [TimedTwistMsg; MAX_COMMANDS],
     }
 );

@@ -54,6 +54,7 @@ constants!(
     MAX_PATH_POSES,
     MAX_COMMANDS,
     MAX_BODIES,
+    MAX_CONTACTS,
     MAX_GROUP_MEMBERS,
     NAME_LEN,
     TEXT_LEN,

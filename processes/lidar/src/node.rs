@@ -80,11 +80,10 @@ impl LidarStage {
 
     /// Moves the movable bodies to their ground-truth poses.
     fn follow_truth(&mut self, t: &WorldTruth) -> Result<(), NodeError> {
-        let len = (t.len as usize)
-            .min(t.bodies.len())
-            .min(self.raycaster.body_count());
-        for (i, b) in t.bodies[..len].iter().enumerate() {
-            if b.is_static == 0 {
+        let len = (t.len as usize).min(t.bodies.len());
+        for b in &t.bodies[..len] {
+            let i = b.index as usize;
+            if b.is_static == 0 && i < self.raycaster.body_count() {
                 let p: Pose2 = b.pose.into();
                 if self.raycaster.body_pose(i) != Some(p) {
                     self.raycaster

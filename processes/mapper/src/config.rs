@@ -12,14 +12,16 @@ use aisle_config::{InvalidKey, Validate};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
-/// Cells per metre above this would make a 20 x 30 m map exceed the 1024 x 1024 cells a
-/// grid message holds; far finer than a lidar at 12 m can resolve anyway.
+/// Cells per metre above this would make a 20 x 30 m map exceed the 2^20 cells a grid
+/// message holds; far finer than a lidar at 12 m can resolve anyway.
 const MAX_CELLS_PER_METRE: f64 = 50.0;
 
-/// Largest grid side, in cells, the library accepts. Equal to the capacity of the grid
-/// message (1024 x 1024 cells); kept here so the algorithm does not depend on the
-/// message crate. The node adapter asserts the two agree.
-pub const MAX_GRID_SIDE: usize = 1024;
+/// Most cells a grid may have, the capacity of the grid message (1024 x 1024 cells, in
+/// any shape: a long warehouse may be 850 x 1200); kept here so the algorithm does not
+/// depend on the message crate. The node adapter asserts the two agree.
+pub const MAX_GRID_CELLS: usize = 1 << 20;
+/// Longest grid side, in cells (a grid is at most `MAX_GRID_CELLS` in all).
+pub const MAX_GRID_SIDE: usize = 4096;
 
 /// The rolling local map handed to the controller every tick.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -163,6 +165,16 @@ impl Validate for MapConfig {
                 ));
             }
         }
+        let cells = self.size.map(|v| (v * self.cells_per_metre).round());
+        if cells[0] * cells[1] > MAX_GRID_CELLS as f64 {
+            return Err(invalid(
+                "size",
+                format!(
+                    "{} x {} cells is more than the {MAX_GRID_CELLS} cells a grid message holds",
+                    cells[0], cells[1]
+                ),
+            ));
+        }
         interval("height_limits", self.height_limits)?;
         non_negative("boundary_band", self.boundary_band)?;
         if 2.0 * self.boundary_band >= self.size[0].min(self.size[1]) {
@@ -172,7 +184,8 @@ impl Validate for MapConfig {
             ));
         }
         positive("local.size", self.local.size)?;
-        if (self.local.size * self.cells_per_metre).round() > MAX_GRID_SIDE as f64 {
+        let local = (self.local.size * self.cells_per_metre).round();
+        if local * local > MAX_GRID_CELLS as f64 {
             return Err(invalid(
                 "local.size",
                 "more cells than the largest grid a message holds",

@@ -5,7 +5,7 @@
 //! scan, and copy the maps out. Knows nothing of the bus or of clocks.
 
 use crate::cloud::BeamGeometry;
-use crate::config::{MAX_GRID_SIDE, MapConfig};
+use crate::config::{MAX_GRID_CELLS, MAX_GRID_SIDE, MapConfig};
 use crate::error::MapError;
 use crate::local_map::{LocalMapInfo, extract_local};
 use crate::obstacle_layer::{ObstacleLayer, Scan, ScanStats};
@@ -64,8 +64,15 @@ impl Mapper {
                 max: MAX_GRID_SIDE,
             });
         }
+        if static_map.cells.len() > MAX_GRID_CELLS {
+            return Err(MapError::TooMany {
+                what: "global map cells",
+                got: static_map.cells.len(),
+                max: MAX_GRID_CELLS,
+            });
+        }
         let local_side = (cfg.local.size / static_map.resolution).round().max(1.0) as usize;
-        if local_side > MAX_GRID_SIDE {
+        if local_side > MAX_GRID_SIDE || local_side * local_side > MAX_GRID_CELLS {
             return Err(MapError::TooMany {
                 what: "local map cells per side",
                 got: local_side,

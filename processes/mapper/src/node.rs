@@ -82,17 +82,15 @@ impl MapperStage {
             load_static_map(&cfg, &config_dir.join("warehouse.toml")).map_err(|e| {
                 NodeError::setup(format!("mapper: static map ({})", mapper_toml.display()), e)
             })?;
-        if static_map.cells.len() > aisle_messages::MAX_GRID_CELLS
-            || static_map.width > aisle_messages::MAX_GRID_SIDE
-            || static_map.height > aisle_messages::MAX_GRID_SIDE
-        {
+        const _: () = assert!(crate::config::MAX_GRID_CELLS == aisle_messages::MAX_GRID_CELLS);
+        if static_map.cells.len() > aisle_messages::MAX_GRID_CELLS {
             return Err(NodeError::setup(
                 format!("mapper: {}", mapper_toml.display()),
                 format!(
-                    "a {} x {} map exceeds the OccupancyGrid capacity of {} cells per side",
+                    "a {} x {} map exceeds the OccupancyGrid capacity of {} cells",
                     static_map.width,
                     static_map.height,
-                    aisle_messages::MAX_GRID_SIDE
+                    aisle_messages::MAX_GRID_CELLS
                 ),
             ));
         }

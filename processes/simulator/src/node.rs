@@ -23,9 +23,9 @@ use aisle_bus::{
 use aisle_config::scene::Scene;
 use aisle_geometry::Pose2;
 use aisle_messages::{
-    GroupMembers, MAX_BODIES, NodeKind, NodeState, RobotState, STAGE_CONTROLLER, SimCommand,
-    SimCommandKind, SimState, StageStatus, Tick, TickDone, TickMode, Trajectory, WorldTruth,
-    topics, write_name,
+    GroupMembers, MAX_BODIES, MAX_CONTACTS, NodeKind, NodeState, RobotState, STAGE_CONTROLLER,
+    SimCommand, SimCommandKind, SimState, StageStatus, Tick, TickDone, TickMode, Trajectory,
+    WorldTruth, topics, write_name,
 };
 use aisle_node::Graph;
 use aisle_node::tick::Awaited;
@@ -92,17 +92,22 @@ fn load_world(args: &NodeArgs) -> Result<(World, TrajectoryLife), NodeError> {
     let start = Pose2::new(args.start[0], args.start[1], args.start[2]);
     let world = World::new_at(&scene, &model, &cfg, start)
         .map_err(|e| NodeError::setup("simulator: start pose", e))?;
-    if world.bodies().len() > MAX_BODIES {
+    let movable = world.bodies().iter().filter(|b| !b.is_static).count();
+    if movable > MAX_MOVABLE_BODIES {
         return Err(NodeError::setup(
-            "simulator",
+            format!("simulator: {}", scene_path.display()),
             format!(
-                "the scene has {} bodies, WorldTruth holds {MAX_BODIES}",
-                world.bodies().len()
+                "the scene has {movable} bodies that are not static; WorldTruth holds \
+                 {MAX_MOVABLE_BODIES} (static bodies: any number)"
             ),
         ));
     }
     Ok((world, life))
 }
+
+/// Non-static bodies a scene may have: `WorldTruth` lists them all every tick and keeps
+/// room for the static bodies in contact.
+const MAX_MOVABLE_BODIES: usize = MAX_BODIES - MAX_CONTACTS;
 
 fn open_ports(bus: &Bus) -> Result<Ports, NodeError> {
     Ok(Ports {
@@ -365,19 +370,25 @@ fn publish_state(ports: &mut Ports, world: &World, stamp: Stamp) -> Result<(), N
     })?;
     let min_clearance = world.min_clearance();
     ports.truth.publish(stamp, |m| {
-        let bodies = world.bodies();
-        m.len = bodies.len() as u32;
-        m.collisions = collisions;
-        m.min_clearance = min_clearance;
-        for (i, (dst, b)) in m.bodies.iter_mut().zip(bodies).enumerate() {
+        // The bodies that can move, then the static ones in contact (see `WorldTruth`).
+        let bodies = world.bodies().iter().enumerate();
+        let movable = bodies.clone().filter(|(_, b)| !b.is_static);
+        let touched = bodies.filter(|(i, b)| b.is_static && world.in_contact(*i));
+        let mut n = 0;
+        for (dst, (i, b)) in m.bodies.iter_mut().zip(movable.chain(touched)) {
             write_name(&mut dst.name, &b.name);
             dst.pose = b.pose.into();
             let fp = b.footprint();
             dst.size = [fp.length, fp.width, b.height()];
+            dst.index = i as u32;
             dst.is_static = b.is_static as u8;
             dst.carried = (carried == i as i32) as u8;
             dst.in_contact = world.in_contact(i) as u8;
+            n += 1;
         }
+        m.len = n;
+        m.collisions = collisions;
+        m.min_clearance = min_clearance;
     })?;
     Ok(())
 }

@@ -8,7 +8,8 @@ use crate::kinematics::{Twist, WheelSpeeds};
 use crate::timeline::{CommandTimeline, TimedCommand};
 use crate::world::{Carried, RobotState as WorldRobot, WorldSnapshot};
 use aisle_bus::{Bus, NodeError, Publisher, Stamp, WaitOutcome};
-use aisle_messages::{MAX_BODIES, SimState, Trajectory, topics};
+use aisle_geometry::Pose2;
+use aisle_messages::{SimState, Trajectory, topics};
 use std::time::Duration;
 
 /// How long a restarted simulator waits for its published state.
@@ -97,16 +98,22 @@ pub(crate) fn publish_sim_state(
         m.last_trajectory_tick = applied.trajectory.0;
         m.last_trajectory_seq = applied.trajectory.1;
         m.last_stop_tick = applied.stop_tick;
-        m.bodies_len = snap.body_poses.len() as u32;
-        for (dst, (p, c)) in m
-            .body_poses
-            .iter_mut()
-            .zip(m.in_contact.iter_mut())
-            .zip(snap.body_poses.iter().zip(&snap.in_contact))
-        {
-            *dst.0 = (*p).into();
-            *dst.1 = *c as u8;
+        // Static bodies never move: only the others' poses are state.
+        let movable = world.bodies().iter().zip(&snap.body_poses);
+        let movable = movable.filter(|(b, _)| !b.is_static).map(|(_, p)| p);
+        let mut n = 0;
+        for (dst, p) in m.body_poses.iter_mut().zip(movable) {
+            *dst = (*p).into();
+            n += 1;
         }
+        m.bodies_len = n as u32;
+        let touching = snap.in_contact.iter().enumerate().filter(|(_, c)| **c);
+        let mut n = 0;
+        for (dst, (i, _)) in m.contacts.iter_mut().zip(touching) {
+            *dst = i as u32;
+            n += 1;
+        }
+        m.contacts_len = n as u32;
         let entries = snap.timeline.commands();
         m.timeline_len = entries.len() as u32;
         m.timeline_start_ns = snap.timeline.start_ns();
@@ -122,7 +129,7 @@ pub(crate) fn publish_sim_state(
 
 /// Puts `world` back into the state `m` describes.
 fn restore(world: &mut World, m: &SimState) -> Result<(), NodeError> {
-    let n = (m.bodies_len as usize).min(MAX_BODIES);
+    let (body_poses, in_contact) = bodies_of(world, m)?;
     let tl = (m.timeline_len as usize).min(m.timeline.len());
     let entries: Vec<TimedCommand> = m.timeline[..tl]
         .iter()
@@ -153,8 +160,8 @@ fn restore(world: &mut World, m: &SimState) -> Result<(), NodeError> {
             body: m.carried_body as usize,
             offset: m.carried_offset.into(),
         }),
-        body_poses: m.body_poses[..n].iter().map(|p| (*p).into()).collect(),
-        in_contact: m.in_contact[..n].iter().map(|&c| c != 0).collect(),
+        body_poses,
+        in_contact,
         collisions: m.collisions,
         min_clearance: m.min_clearance,
         timeline,
@@ -162,4 +169,37 @@ fn restore(world: &mut World, m: &SimState) -> Result<(), NodeError> {
     world
         .restore(&snap)
         .map_err(|e| NodeError::Protocol(format!("simulator: resuming: {e}")))
+}
+
+/// Every body's pose and contact flag in scene order, from a `SimState` that names only
+/// the bodies that can move and those in contact.
+fn bodies_of(world: &World, m: &SimState) -> Result<(Vec<Pose2>, Vec<bool>), NodeError> {
+    let bodies = world.bodies();
+    let movable = bodies.iter().filter(|b| !b.is_static).count();
+    if m.bodies_len as usize != movable {
+        return Err(NodeError::Protocol(format!(
+            "simulator: published state has {} movable bodies, the scene {movable}",
+            m.bodies_len
+        )));
+    }
+    let mut published = m.body_poses[..movable].iter();
+    let poses = bodies
+        .iter()
+        .map(|b| match b.is_static {
+            true => b.pose,
+            false => published.next().map_or(b.pose, |p| (*p).into()),
+        })
+        .collect();
+    let mut in_contact = vec![false; bodies.len()];
+    let n = (m.contacts_len as usize).min(m.contacts.len());
+    for &i in &m.contacts[..n] {
+        let flag = in_contact.get_mut(i as usize).ok_or_else(|| {
+            NodeError::Protocol(format!(
+                "simulator: published contact with body {i} of {}",
+                bodies.len()
+            ))
+        })?;
+        *flag = true;
+    }
+    Ok((poses, in_contact))
 }

@@ -5,6 +5,7 @@
 
 use aisle_messages::{WorldTruth, read_name};
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeSet;
 
 /// One collision: the body touched and the sim time at which the contact was seen.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -23,10 +24,12 @@ impl std::fmt::Display for CollisionEvent {
 /// truth sample lost between two reads in realtime).
 pub const UNSEEN_BODY: &str = "an unseen body";
 
-/// The contact flags of the previous sample and the collisions found so far.
+/// The bodies in contact in the previous sample (scene indices) and the collisions
+/// found so far.
 #[derive(Debug, Default)]
 pub struct CollisionWatch {
-    in_contact: Vec<bool>,
+    in_contact: BTreeSet<u32>,
+    touching: BTreeSet<u32>,
     counted: u32,
     pub events: Vec<CollisionEvent>,
 }
@@ -37,17 +40,17 @@ impl CollisionWatch {
         let before = self.events.len();
         let t_s = truth.header.stamp_ns as f64 * 1e-9;
         let n = (truth.len as usize).min(truth.bodies.len());
-        self.in_contact.resize(n, false);
-        for (i, b) in truth.bodies[..n].iter().enumerate() {
-            let touching = b.in_contact != 0;
-            if touching && !self.in_contact[i] {
+        self.touching.clear();
+        for b in truth.bodies[..n].iter().filter(|b| b.in_contact != 0) {
+            self.touching.insert(b.index);
+            if !self.in_contact.contains(&b.index) {
                 self.events.push(CollisionEvent {
                     body: read_name(&b.name).to_string(),
                     t_s,
                 });
             }
-            self.in_contact[i] = touching;
         }
+        std::mem::swap(&mut self.in_contact, &mut self.touching);
         // The simulator's count is the reference: a contact that began and ended
         // between two samples this side read is still a collision.
         let named = (self.events.len() - before) as u32;
@@ -80,9 +83,28 @@ mod tests {
         w.collisions = count;
         for (i, (b, &c)) in w.bodies.iter_mut().zip(contacts).enumerate() {
             write_name(&mut b.name, &format!("body{i}"));
+            b.index = i as u32;
             b.in_contact = c as u8;
         }
         w
+    }
+
+    #[test]
+    fn contacts_are_followed_by_scene_index_not_by_place_in_the_list() {
+        let mut w = CollisionWatch::default();
+        // A static wall (scene index 7) in contact is listed after the movable bodies;
+        // the next sample lists it in another place, still touching: one collision.
+        let mut t = truth(0.1, &[false, false, true], 1);
+        t.bodies[2].index = 7;
+        write_name(&mut t.bodies[2].name, "wall");
+        assert_eq!(w.observe(&t), 1);
+        let mut t = truth(0.2, &[true, false], 2);
+        t.bodies[0].index = 7;
+        write_name(&mut t.bodies[0].name, "wall");
+        t.len = 1;
+        assert_eq!(w.observe(&t), 0, "the same contact, listed elsewhere");
+        assert_eq!(w.events.len(), 2, "the simulator counted one more: unseen");
+        assert_eq!(w.events[0].body, "wall");
     }
 
     #[test]

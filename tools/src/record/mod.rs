@@ -161,8 +161,11 @@ fn record(
         aisle_node::realtime::Forks::Inherit,
     )
     .map_err(|e| NodeError::setup("recorder", e))?;
-    let robot = robot_model(&args.config_dir);
-    let writer = WriterThread::start(out, options, &names, log_clock, robot)?;
+    let models = crate::viewer::ViewerModels {
+        robot: robot_model(&args.config_dir),
+        scene: scene(&args.config_dir),
+    };
+    let writer = WriterThread::start(out, options, &names, log_clock, models)?;
     queue_run_info(&writer.jobs, args, &info, log_clock.name());
     heartbeat.send(NodeState::Ready, "")?;
 
@@ -228,6 +231,18 @@ fn subscribe_all(bus: &Bus) -> Result<Sources, BusError> {
         }
     }
     Ok(sources)
+}
+
+/// The scene, for the static bodies of the viewer's `/viz/scene` (ground truth lists
+/// only the bodies that can move). Without it the view just has no static bodies.
+fn scene(config_dir: &Path) -> Option<aisle_config::scene::Scene> {
+    match aisle_config::scene::Scene::load(&config_dir.join("warehouse.toml")) {
+        Ok(scene) => Some(scene),
+        Err(e) => {
+            tracing::warn!("recorder: no static bodies in the viewer channels: {e}");
+            None
+        }
+    }
 }
 
 /// The robot model for the viewer's `/viz/robot`, from the group's `robot.toml` and the

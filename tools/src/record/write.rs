@@ -13,10 +13,9 @@ use super::RecorderOptions;
 use super::log_clock::LogClock;
 use crate::aligned::AlignedBuf;
 use crate::live::{LiveError, LiveServer, LiveSummary};
-use crate::viewer::{ViewerConverter, ViewerMessage, ViewerOptions};
+use crate::viewer::{ViewerConverter, ViewerMessage, ViewerModels, ViewerOptions};
 use crate::writer::{RecordWriter, WriteCounts, WriteError};
 use aisle_bus::{NodeError, clock};
-use aisle_robot::RobotModel;
 use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::BufWriter;
@@ -69,7 +68,7 @@ impl WriterThread {
         options: &RecorderOptions,
         names: &[&'static str],
         clock: LogClock,
-        robot: Option<RobotModel>,
+        models: ViewerModels,
     ) -> Result<WriterThread, NodeError> {
         let writer = out.map(|out| create(out, options)).transpose()?;
         let (ready_tx, ready) = mpsc::sync_channel(1);
@@ -85,7 +84,7 @@ impl WriterThread {
             queued: queued.clone(),
             names: names.to_vec(),
             viewer: options.viewer,
-            robot,
+            models,
             clock,
             flush_period_ns: options.flush_period.as_nanos() as u64,
         };
@@ -146,8 +145,8 @@ struct WriteLoop<W: std::io::Write + std::io::Seek> {
     queued: Arc<AtomicUsize>,
     names: Vec<&'static str>,
     viewer: ViewerOptions,
-    /// The robot model the viewer channels show (`/viz/robot`), when it could be read.
-    robot: Option<RobotModel>,
+    /// The robot model and the scene's static bodies the viewer channels show.
+    models: ViewerModels,
     /// Maps receive times to `log_time`.
     clock: LogClock,
     flush_period_ns: u64,
@@ -183,7 +182,7 @@ impl<W: std::io::Write + std::io::Seek> WriteLoop<W> {
             queued,
             names,
             viewer,
-            robot,
+            models,
             mut clock,
             flush_period_ns,
         } = self;
@@ -202,8 +201,11 @@ impl<W: std::io::Write + std::io::Seek> WriteLoop<W> {
         }
         let _ = ready.send(Ok(()));
         let mut viewer = ViewerConverter::new(viewer);
-        if let Some(model) = &robot {
+        if let Some(model) = &models.robot {
             viewer = viewer.with_robot(model);
+        }
+        if let Some(scene) = &models.scene {
+            viewer = viewer.with_static_bodies(scene);
         }
         let mut converted = Vec::new();
         let mut full = AlignedBuf::new();

@@ -121,20 +121,28 @@ fn finite(v: &[f64]) -> bool {
     v.iter().all(|x| x.is_finite() && x.abs() < 1e5)
 }
 
-/// The kinds of the scene's bodies by name, from the `warehouse.toml` the record holds
-/// (empty when it holds none or it does not parse).
-fn scene_kinds(file: &RecordFile) -> Vec<(String, String)> {
-    let Ok(attachments) = file.attachments() else {
-        return Vec::new();
-    };
+/// The `warehouse.toml` the record holds (`None` when it holds none or it does not
+/// parse).
+fn scene_of(file: &RecordFile) -> Option<aisle_config::scene::Scene> {
+    let attachments = file.attachments().ok()?;
     attachments
         .iter()
         .filter(|a| a.name == "warehouse.toml")
-        .filter_map(|a| {
+        .find_map(|a| {
             let text = std::str::from_utf8(&a.data).ok()?;
             aisle_config::scene::Scene::parse(Path::new(&a.name), text).ok()
         })
-        .flat_map(|scene| scene.bodies.into_iter().map(|b| (b.name, b.kind)))
+}
+
+/// The static bodies of the scene (ground truth lists only those in contact).
+fn static_boxes(scene: &aisle_config::scene::Scene) -> Vec<StaticBox> {
+    scene
+        .static_bodies()
+        .map(|b| {
+            let fp = b.footprint();
+            [b.pose.x, b.pose.y, b.pose.theta, fp.length, fp.width]
+        })
+        .filter(|v| finite(v))
         .collect()
 }
 
@@ -154,9 +162,19 @@ fn kind_of(name: &str, kinds: &[(String, String)], carried: bool) -> BodyKind {
 
 /// Reads `file` into a [`Run`].
 pub fn collect(file: &RecordFile, opts: &RenderOptions) -> Run {
-    let kinds = scene_kinds(file);
+    let scene = scene_of(file);
+    let kinds: Vec<(String, String)> = scene
+        .iter()
+        .flat_map(|scene| {
+            scene
+                .bodies
+                .iter()
+                .map(|b| (b.name.clone(), b.kind.clone()))
+        })
+        .collect();
     let mut run = Run {
         seed: file.run_metadata().get("seed").cloned(),
+        statics: scene.as_ref().map(static_boxes).unwrap_or_default(),
         ..Run::default()
     };
     let mut band_count = 0;
@@ -248,19 +266,12 @@ pub fn collect(file: &RecordFile, opts: &RenderOptions) -> Run {
     run
 }
 
-/// Static bodies once (from the first ground truth); each movable body's pose whenever
-/// it changed.
+/// Each movable body's pose whenever it changed. The static bodies come from the
+/// record's scene: ground truth lists only those in contact.
 fn bodies(run: &mut Run, truth: &[BodyTruth], t: f64) {
-    let first = run.statics.is_empty() && run.movables.is_empty();
     for b in truth {
         let v = [b.pose.x, b.pose.y, b.pose.theta, b.size[0], b.size[1]];
-        if !finite(&v) {
-            continue;
-        }
-        if b.is_static != 0 {
-            if first {
-                run.statics.push(v);
-            }
+        if !finite(&v) || b.is_static != 0 {
             continue;
         }
         let name = read_name(&b.name);

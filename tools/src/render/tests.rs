@@ -84,7 +84,9 @@ pub(crate) fn carry_file() -> RecordFile {
         [r.pose.x, r.pose.y, r.pose.theta] = pose;
         push(&mut w, s::ROBOT_STATE, r, k);
         let mut t = zeroed_box::<WorldTruth>();
-        t.len = 3;
+        // As the simulator lists them: the bodies that can move (the wall is static: it
+        // comes from the record's scene).
+        t.len = 2;
         let carried = (30..50).contains(&k);
         let rack = if carried || k >= 50 {
             pose
@@ -92,15 +94,14 @@ pub(crate) fn carry_file() -> RecordFile {
             [2.0, 0.0, 0.0]
         };
         let bodies = [
-            ("wall", [1.0, -3.0, 0.0], [8.0, 0.2, 3.0], 1, 0),
-            ("rack_a", rack, [0.88, 0.8, 1.0], 0, u8::from(carried)),
-            ("stack_1", [1.0, 2.0, 0.0], [1.2, 0.8, 0.9], 0, 0),
+            ("rack_a", 1, rack, [0.88, 0.8, 1.0], u8::from(carried)),
+            ("stack_1", 2, [1.0, 2.0, 0.0], [1.2, 0.8, 0.9], 0),
         ];
-        for (b, (name, p, size, is_static, carried)) in t.bodies.iter_mut().zip(bodies) {
+        for (b, (name, index, p, size, carried)) in t.bodies.iter_mut().zip(bodies) {
             write_name(&mut b.name, name);
+            b.index = index;
             [b.pose.x, b.pose.y, b.pose.theta] = p;
             b.size = size;
-            b.is_static = is_static;
             b.carried = carried;
         }
         push(&mut w, s::WORLD_TRUTH, t, k);

@@ -32,6 +32,11 @@ pub struct ViewerConverter {
     last_failures: Vec<(u32, String)>,
     /// The robot's entity until it is sent (with the first message converted).
     robot: Option<fg::SceneEntity>,
+    /// The scene's static bodies (ground truth lists only the bodies that can move),
+    /// sent with the first ground truth and again every `STATIC_RESEND_NS`, so a viewer
+    /// that joins late gets them too.
+    statics: Vec<fg::CubePrimitive>,
+    statics_sent_ns: Option<u64>,
     latency: LatencyTicks,
     /// Buffers of messages already written, for the JSON plot messages (so writing
     /// them allocates nothing once the pool is warm).
@@ -42,6 +47,9 @@ pub struct ViewerConverter {
 const SPARE_BUFFERS: usize = 16;
 const SPARE_CAPACITY: usize = 4096;
 
+/// How often the static bodies are sent again, sim time.
+const STATIC_RESEND_NS: u64 = 5_000_000_000;
+
 /// Longest driven path kept; beyond it every other pose is dropped.
 const MAX_DRIVEN: usize = 20_000;
 
@@ -51,6 +59,25 @@ impl ViewerConverter {
             options,
             ..Self::default()
         }
+    }
+
+    /// Also shows the scene's static bodies in `/viz/scene`.
+    pub fn with_static_bodies(mut self, scene: &aisle_config::scene::Scene) -> Self {
+        let grey = rgba(0.55, 0.57, 0.6, 0.8);
+        self.statics = scene
+            .static_bodies()
+            .map(|b| {
+                let fp = b.footprint();
+                cube(
+                    b.pose.x,
+                    b.pose.y,
+                    b.pose.theta,
+                    [fp.length, fp.width, b.height()],
+                    grey,
+                )
+            })
+            .collect();
+        self
     }
 
     /// Also sends the robot model (`/viz/robot`), with the first message converted.
@@ -164,38 +191,20 @@ impl ViewerConverter {
         }
         self.last_bodies = bodies.to_vec();
         let t = timestamp(m.header.stamp_ns);
-        let mut fixed = Vec::new();
-        let mut movable = Vec::new();
-        for b in &m.bodies[..n] {
-            let color = if b.carried != 0 {
-                rgba(0.95, 0.55, 0.1, 0.9)
-            } else if b.is_static != 0 {
-                rgba(0.55, 0.57, 0.6, 0.8)
-            } else {
-                rgba(0.6, 0.35, 0.15, 0.9)
-            };
-            let cube = fg::CubePrimitive {
-                pose: Some(pose3(
-                    b.pose.x,
-                    b.pose.y,
-                    b.size[2] / 2.0,
-                    0.0,
-                    0.0,
-                    b.pose.theta,
-                )),
-                size: Some(fg::Vector3 {
-                    x: b.size[0],
-                    y: b.size[1],
-                    z: b.size[2],
-                }),
-                color: Some(color),
-            };
-            if b.is_static != 0 {
-                fixed.push(cube);
-            } else {
-                movable.push(cube);
-            }
-        }
+        // The bodies that can move, and the static ones in contact (red).
+        let movable = m.bodies[..n]
+            .iter()
+            .map(|b| {
+                let color = if b.carried != 0 {
+                    rgba(0.95, 0.55, 0.1, 0.9)
+                } else if b.is_static != 0 {
+                    rgba(0.9, 0.1, 0.1, 0.9)
+                } else {
+                    rgba(0.6, 0.35, 0.15, 0.9)
+                };
+                cube(b.pose.x, b.pose.y, b.pose.theta, b.size, color)
+            })
+            .collect();
         let entity = |id: &str, cubes| fg::SceneEntity {
             timestamp: Some(t),
             frame_id: "map".into(),
@@ -203,9 +212,18 @@ impl ViewerConverter {
             cubes,
             ..Default::default()
         };
+        let mut entities = vec![entity("movable", movable)];
+        let stamp = m.header.stamp_ns;
+        let due = self
+            .statics_sent_ns
+            .is_none_or(|sent| stamp.saturating_sub(sent) >= STATIC_RESEND_NS || stamp < sent);
+        if due && !self.statics.is_empty() {
+            self.statics_sent_ns = Some(stamp);
+            entities.push(entity("static", self.statics.clone()));
+        }
         let update = fg::SceneUpdate {
             deletions: vec![],
-            entities: vec![entity("static", fixed), entity("movable", movable)],
+            entities,
         };
         out.push(encode(ViewerTopic::Scene, m.header.stamp_ns, &update));
     }
@@ -390,4 +408,18 @@ fn band(m: &ControllerBand, out: &mut Vec<ViewerMessage>) {
     }
     let poses = m.poses[..n].iter().map(|p| (p.x, p.y, p.theta));
     out.push(path(ViewerTopic::Band, m.header.stamp_ns, poses));
+}
+
+/// A box standing on the floor at `(x, y)`, turned by `theta`; `size` is length, width,
+/// height.
+fn cube(x: f64, y: f64, theta: f64, size: [f64; 3], color: fg::Color) -> fg::CubePrimitive {
+    fg::CubePrimitive {
+        pose: Some(pose3(x, y, size[2] / 2.0, 0.0, 0.0, theta)),
+        size: Some(fg::Vector3 {
+            x: size[0],
+            y: size[1],
+            z: size[2],
+        }),
+        color: Some(color),
+    }
 }

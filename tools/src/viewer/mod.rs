@@ -27,6 +27,14 @@ mod robot;
 pub use build::timestamp;
 pub use converter::ViewerConverter;
 
+/// What the viewer channels show besides the record's messages: the robot model
+/// (`/viz/robot`) and the scene, whose static bodies ground truth does not list.
+#[derive(Debug, Default)]
+pub struct ViewerModels {
+    pub robot: Option<aisle_robot::RobotModel>,
+    pub scene: Option<aisle_config::scene::Scene>,
+}
+
 use foxglove::Encode;
 use foxglove::messages as fg;
 
@@ -238,23 +246,40 @@ mod tests {
 
     #[test]
     fn scene_and_logs_are_emitted_on_change_only() {
+        let scene = aisle_config::scene::Scene::parse(
+            std::path::Path::new("warehouse.toml"),
+            "[[body]]\nname = \"wall\"\nkind = \"wall\"\nstatic = true\n\
+             pose = [0.0, 0.0, 0.0]\nsize = [1.0, 2.0, 3.0]\n",
+        )
+        .unwrap();
+        // Ground truth lists the bodies that can move; the wall comes from the scene.
         let mut w = zeroed_box::<WorldTruth>();
-        w.len = 2;
-        w.bodies[0].is_static = 1;
-        w.bodies[0].size = [1.0, 2.0, 3.0];
-        w.bodies[1].pose.x = 2.0;
-        w.bodies[1].size = [0.88, 0.8, 1.0];
-        let mut conv = ViewerConverter::default();
+        w.len = 1;
+        w.bodies[0].pose.x = 2.0;
+        w.bodies[0].size = [0.88, 0.8, 1.0];
+        let mut conv = ViewerConverter::default().with_static_bodies(&scene);
         let mut out = Vec::new();
         conv.convert(s::WORLD_TRUTH, &buf(&*w), &mut out);
         conv.convert(s::WORLD_TRUTH, &buf(&*w), &mut out);
         assert_eq!(out.len(), 1);
         let su = fg::SceneUpdate::decode(out[0].data.as_slice()).unwrap();
+        let ids: Vec<_> = su.entities.iter().map(|e| e.id.as_str()).collect();
+        assert_eq!(ids, ["movable", "static"]);
         assert_eq!(su.entities[0].cubes.len(), 1);
-        assert_eq!(su.entities[1].cubes.len(), 1);
-        w.bodies[1].pose.x = 2.5;
+        let wall = su.entities[1].cubes[0].size.unwrap();
+        assert_eq!((wall.x, wall.y, wall.z), (1.0, 2.0, 3.0));
+        // A move 0.1 s later: the movable bodies only; 5 s later the static ones again.
+        w.bodies[0].pose.x = 2.5;
+        w.header.stamp_ns = 100_000_000;
         conv.convert(s::WORLD_TRUTH, &buf(&*w), &mut out);
         assert_eq!(out.len(), 2);
+        let su = fg::SceneUpdate::decode(out[1].data.as_slice()).unwrap();
+        assert_eq!(su.entities.len(), 1);
+        w.bodies[0].pose.x = 3.0;
+        w.header.stamp_ns = 5_000_000_000;
+        conv.convert(s::WORLD_TRUTH, &buf(&*w), &mut out);
+        let su = fg::SceneUpdate::decode(out[2].data.as_slice()).unwrap();
+        assert_eq!(su.entities.len(), 2);
 
         let mut st = zeroed_box::<MissionStatus>();
         write_name(&mut st.text, "planning segment 1");
