@@ -403,3 +403,29 @@ fn without_the_lidar_and_with_collisions_allowed_the_mission_goes_on() {
         assert!(stdout.contains(&e.to_string()), "{e} not in {stdout}");
     }
 }
+
+#[test]
+fn a_scene_with_more_movable_bodies_than_ground_truth_holds_is_refused_naming_it() {
+    // Static bodies may be any number; the ones that can move are listed every tick.
+    let dir = TestDir::new("too-many-movable");
+    let boxes: String = (0..=aisle_simulator::MAX_MOVABLE_BODIES)
+        .map(|i| {
+            format!(
+                "[[body]]\nname = \"crate_{i}\"\nkind = \"box\"\nstatic = false\n\
+                 pose = [{}, 9.5, 0.0]\nsize = [0.05, 0.05, 0.5]\n\n",
+                -4.0 + 0.06 * i as f64
+            )
+        })
+        .collect();
+    let anchor = "# ---- Movable: pallet racks";
+    let cfg = config_with(&dir, "cfg", "warehouse.toml", anchor, &(boxes + anchor));
+    refused_by_check_and_run(
+        &dir,
+        &cfg,
+        &[
+            "warehouse.toml",
+            "bodies are not static",
+            "static bodies: any number",
+        ],
+    );
+}

@@ -30,6 +30,10 @@ pub mod timeline;
 pub mod world;
 
 pub use error::SimError;
+
+/// Non-static bodies a scene may have: `WorldTruth` lists them all every tick and keeps
+/// room for the static bodies in contact (static bodies: any number).
+pub const MAX_MOVABLE_BODIES: usize = aisle_messages::MAX_BODIES - aisle_messages::MAX_CONTACTS;
 pub use kinematics::{DiffDrive, Twist, WheelSpeeds};
 pub use timeline::{CommandTimeline, MAX_COMMANDS, TimelineError};
 pub use world::{Carried, DEFAULT_DT_NS, RobotState, StepReport, World, WorldSnapshot};

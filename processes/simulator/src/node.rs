@@ -14,6 +14,7 @@
 //!
 //! This is the adapter between [`crate::World`] and the bus; it holds no physics.
 
+use crate::MAX_MOVABLE_BODIES;
 use crate::World;
 use crate::sim_state::{Applied, publish_sim_state, resume};
 use aisle_bus::{
@@ -23,9 +24,8 @@ use aisle_bus::{
 use aisle_config::scene::Scene;
 use aisle_geometry::Pose2;
 use aisle_messages::{
-    GroupMembers, MAX_BODIES, MAX_CONTACTS, NodeKind, NodeState, RobotState, STAGE_CONTROLLER,
-    SimCommand, SimCommandKind, SimState, StageStatus, Tick, TickDone, TickMode, Trajectory,
-    WorldTruth, topics, write_name,
+    GroupMembers, NodeKind, NodeState, RobotState, STAGE_CONTROLLER, SimCommand, SimCommandKind,
+    SimState, StageStatus, Tick, TickDone, TickMode, Trajectory, WorldTruth, topics, write_name,
 };
 use aisle_node::Graph;
 use aisle_node::tick::Awaited;
@@ -104,10 +104,6 @@ fn load_world(args: &NodeArgs) -> Result<(World, TrajectoryLife), NodeError> {
     }
     Ok((world, life))
 }
-
-/// Non-static bodies a scene may have: `WorldTruth` lists them all every tick and keeps
-/// room for the static bodies in contact.
-const MAX_MOVABLE_BODIES: usize = MAX_BODIES - MAX_CONTACTS;
 
 fn open_ports(bus: &Bus) -> Result<Ports, NodeError> {
     Ok(Ports {

@@ -137,6 +137,15 @@ impl Loaded {
     pub fn load(files: &ConfigFiles) -> Result<Loaded, String> {
         let s = |e: &dyn std::fmt::Display| e.to_string();
         let scene = Scene::load(&files.scene).map_err(|e| s(&e))?;
+        let movable = scene.movable_bodies().count();
+        if movable > aisle_simulator::MAX_MOVABLE_BODIES {
+            return Err(format!(
+                "{}: {movable} bodies are not static, the simulator's ground truth holds {} \
+                 (static bodies: any number)",
+                files.scene.display(),
+                aisle_simulator::MAX_MOVABLE_BODIES
+            ));
+        }
         let (robot, model) = aisle_robot::load_robot(&files.robot).map_err(|e| s(&e))?;
         aisle_config::load::<aisle_robot::LidarConfig>(&files.lidar).map_err(|e| s(&e))?;
         let map_cfg =
