@@ -230,6 +230,16 @@ impl<M: Message> Subscriber<M> {
         self.service
     }
 
+    /// Connects to publishers that appeared since the last call (mapping their data
+    /// segments). `receive` does this too, but a stage calls it while it waits, so a
+    /// cycle does not pay for connecting (15 ms for the supervisor's first trajectory).
+    pub fn update_connections(&self) -> Result<(), BusError> {
+        use iceoryx2::port::update_connections::UpdateConnections;
+        self.port
+            .update_connections()
+            .map_err(|e| BusError::service(self.service, e))
+    }
+
     /// The next sample in arrival order, if any.
     pub fn receive(&self) -> Result<Option<Received<M>>, BusError> {
         self.port

@@ -38,6 +38,13 @@ pub struct Client<Req: Message + Correlated, Resp: Message + Correlated> {
 }
 
 impl<Req: Message + Correlated, Resp: Message + Correlated> Client<Req, Resp> {
+    /// Connects both ports to the peers that exist now (see
+    /// [`Subscriber::update_connections`]).
+    pub fn update_connections(&self) -> Result<(), BusError> {
+        self.requests.update_connections()?;
+        self.responses.update_connections()
+    }
+
     pub fn new(requests: Publisher<Req>, responses: Subscriber<Resp>) -> Self {
         Self {
             requests,

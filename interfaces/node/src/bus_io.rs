@@ -28,7 +28,10 @@ struct OutPort {
 pub struct BusIo<'b> {
     bus: &'b Bus,
     node: String,
-    inputs: Vec<(&'static str, Box<dyn Any>)>,
+    /// Each subscriber with its typed `update_connections`, run between the sleeps of
+    /// every wait: connecting to a publisher maps its data segment, which must not
+    /// happen inside the first cycle that receives from it (it took 4-15 ms there).
+    inputs: Vec<(&'static str, Box<dyn Any>, fn(&dyn Any))>,
     outputs: Vec<OutPort>,
     heartbeat: RefCell<HeartbeatSender>,
     /// What the heartbeats of waits say: `Starting` until the stage is ready.
@@ -45,6 +48,12 @@ struct Opener<'a, 'b> {
     error: Option<NodeError>,
 }
 
+fn connect_port<T: Message>(port: &dyn Any) {
+    if let Some(s) = port.downcast_ref::<Subscriber<T>>() {
+        let _ = s.update_connections();
+    }
+}
+
 fn refresh_port<T: Message>(port: &dyn Any) {
     if let Some(p) = port.downcast_ref::<RefCell<Publisher<T>>>() {
         let _ = p.borrow().update_connections();
@@ -59,7 +68,10 @@ impl TopicVisitor for Opener<'_, '_> {
         let listed = |l: &[String]| l.iter().any(|t| t == topic.name);
         if listed(&self.decl.subscribes) {
             match self.bus.subscriber(topic) {
-                Ok(s) => self.io.inputs.push((topic.name, Box::new(s))),
+                Ok(s) => self
+                    .io
+                    .inputs
+                    .push((topic.name, Box::new(s), connect_port::<T>)),
                 Err(e) => self.error = Some(e.into()),
             }
         }
@@ -121,8 +133,8 @@ impl<'b> BusIo<'b> {
     fn input<T: Message>(&self, topic: Topic<T>) -> Result<&Subscriber<T>, NodeError> {
         self.inputs
             .iter()
-            .find(|(name, _)| *name == topic.name)
-            .and_then(|(_, p)| p.downcast_ref::<Subscriber<T>>())
+            .find(|(name, _, _)| *name == topic.name)
+            .and_then(|(_, p, _)| p.downcast_ref::<Subscriber<T>>())
             .ok_or_else(|| self.undeclared(topic.name, "subscribes"))
     }
 
@@ -134,10 +146,14 @@ impl<'b> BusIo<'b> {
             .ok_or_else(|| self.undeclared(topic.name, "publishes"))
     }
 
-    /// Heartbeat and history hand-over; runs between the sleeps of every wait.
+    /// Heartbeat, connections to new publishers and history hand-over; runs between
+    /// the sleeps of every wait.
     pub fn on_slice(&self) {
         if let Ok(mut hb) = self.heartbeat.try_borrow_mut() {
             let _ = hb.tick(self.state.get());
+        }
+        for (_, port, connect) in &self.inputs {
+            connect(port.as_ref());
         }
         for o in &self.outputs {
             (o.refresh)(o.port.as_ref());

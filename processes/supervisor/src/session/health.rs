@@ -467,6 +467,9 @@ impl Session {
             }
         }
         self.health.publish_members()?;
+        // Every publisher of the group exists now: connect to them before the first tick,
+        // not inside it (mapping the controller's trajectory pool took 15 ms there).
+        self.ports.connect()?;
         self.health.running = true;
         tracing::info!(
             "all {} nodes ready after {:.2} s",

@@ -36,6 +36,16 @@ pub(super) struct DataPorts {
 }
 
 impl DataPorts {
+    /// Connects every subscriber to the publishers that exist now.
+    pub fn connect(&self) -> Result<(), aisle_bus::BusError> {
+        self.tick.update_connections()?;
+        self.tick_done_in.update_connections()?;
+        self.robot.update_connections()?;
+        self.truth.update_connections()?;
+        self.trajectory.update_connections()?;
+        self.planner.update_connections()
+    }
+
     fn open(bus: &Bus) -> anyhow::Result<DataPorts> {
         Ok(DataPorts {
             tick: bus.subscriber(topics::TICK)?,
