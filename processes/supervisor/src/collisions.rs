@@ -98,13 +98,15 @@ mod tests {
         t.bodies[2].index = 7;
         write_name(&mut t.bodies[2].name, "wall");
         assert_eq!(w.observe(&t), 1);
-        let mut t = truth(0.2, &[true, false], 2);
+        let mut t = truth(0.2, &[true, false], 1);
         t.bodies[0].index = 7;
         write_name(&mut t.bodies[0].name, "wall");
-        t.len = 1;
         assert_eq!(w.observe(&t), 0, "the same contact, listed elsewhere");
-        assert_eq!(w.events.len(), 2, "the simulator counted one more: unseen");
-        assert_eq!(w.events[0].body, "wall");
+        // Body 0 of the first sample (index 0) touches now: a new collision, named.
+        let t = truth(0.3, &[true, false], 2);
+        assert_eq!(w.observe(&t), 1);
+        let names: Vec<_> = w.events.iter().map(|e| e.body.as_str()).collect();
+        assert_eq!(names, ["wall", "body0"]);
     }
 
     #[test]
