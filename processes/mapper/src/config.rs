@@ -261,6 +261,12 @@ mod tests {
         let e = load::<MapConfig>(&path).unwrap_err().to_string();
         assert!(e.contains("obstacles.clear_radius"), "{e}");
         assert!(e.contains("half a cell"), "{e}");
+        // Any shape up to the cells a grid message holds: 86 x 120 m fits, 110 x 100 m not.
+        std::fs::write(&path, "size = [86.0, 120.0]\n").unwrap();
+        load::<MapConfig>(&path).unwrap();
+        std::fs::write(&path, "size = [110.0, 100.0]\n").unwrap();
+        let e = load::<MapConfig>(&path).unwrap_err().to_string();
+        assert!(e.contains("key `size`") && e.contains("1048576 cells"), "{e}");
         std::fs::write(&path, "cell_per_metre = 10.0\n").unwrap();
         let e = load::<MapConfig>(&path).unwrap_err().to_string();
         assert!(e.contains("mapper.toml:1:"), "{e}");

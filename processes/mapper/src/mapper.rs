@@ -455,9 +455,15 @@ mod tests {
         let g = GridMap::new_free(0.0, 0.0, 0.1, 1.0, 1.0).unwrap();
         let e = Mapper::new(g, &bad, BeamGeometry::default()).unwrap_err();
         assert!(e.to_string().contains("cells_per_metre"), "{e}");
-        // A user's ROS map too large for a grid message.
-        let huge = GridMap::new_free(0.0, 0.0, 0.1, 102.5, 1.0).unwrap();
+        // A user's ROS map too large for a grid message: more cells than it holds, or a
+        // side longer than any grid's; a long narrow one that fits is fine.
+        let huge = GridMap::new_free(0.0, 0.0, 0.1, 110.0, 100.0).unwrap();
         let e = Mapper::new(huge, &cfg, BeamGeometry::default()).unwrap_err();
-        assert!(matches!(e, MapError::TooMany { got: 1025, .. }), "{e}");
+        assert!(matches!(e, MapError::TooMany { got: 1_100_000, .. }), "{e}");
+        let long = GridMap::new_free(0.0, 0.0, 0.1, 409.7, 2.0).unwrap();
+        let e = Mapper::new(long, &cfg, BeamGeometry::default()).unwrap_err();
+        assert!(matches!(e, MapError::TooMany { got: 4097, .. }), "{e}");
+        let narrow = GridMap::new_free(0.0, 0.0, 0.1, 102.5, 20.0).unwrap();
+        assert!(Mapper::new(narrow, &cfg, BeamGeometry::default()).is_ok());
     }
 }
