@@ -5,7 +5,8 @@
 //! Knows nothing of grids, costs or search; every motion is a pure function of its start
 //! pose and a fraction in [0, 1], so samples are reproducible bit for bit.
 
-use aisle_geometry::{Direction, Pose2, wrap_angle};
+use crate::angle::wrap as wrap_angle;
+use aisle_geometry::{Direction, Pose2};
 
 /// One motion with constant controls.
 #[derive(Debug, Clone, Copy, PartialEq)]
