@@ -5,6 +5,7 @@
 //!
 //! Knows nothing of grids or collision; pure arithmetic on poses.
 
+// Bit for bit `aisle_geometry::wrap_angle`, without its `fmod` call within one turn.
 use crate::angle::wrap as wrap_angle;
 use crate::config::PlannerConfig;
 use crate::motion::Motion;
