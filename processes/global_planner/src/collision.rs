@@ -222,6 +222,8 @@ pub(crate) struct FootprintChecker<'a> {
     /// every primitive from the same pose, so its first sample is probed once, not once
     /// per primitive (a probe is a pure function of the pose).
     first: Cell<Option<([u64; 3], Probe)>>,
+    /// The disk whose clearance failed last, tried first.
+    failed_disk: Cell<usize>,
 }
 
 impl<'a> FootprintChecker<'a> {
@@ -254,6 +256,7 @@ impl<'a> FootprintChecker<'a> {
             n_disks: nl * nw,
             r_disk: 0.5 * tl.hypot(tw),
             first: Cell::new(None),
+            failed_disk: Cell::new(0),
         }
     }
 
@@ -298,15 +301,22 @@ impl<'a> FootprintChecker<'a> {
         let turn = p.theta.sin_cos();
         let (sin, cos) = turn;
         let mut disk_slack = f64::INFINITY;
-        for &(bx, by) in &self.disks[..self.n_disks] {
+        // From the disk that failed last: nearby poses fail on the same side, and then
+        // the exact check decides whichever disk failed (when none fails, the least
+        // slack is the same in any order).
+        let (n, first) = (self.n_disks, self.failed_disk.get());
+        for i in (first..n).chain(0..first) {
+            let (bx, by) = self.disks[i];
             let x = p.x + cos * bx - sin * by;
             let y = p.y + sin * bx + cos * by;
             let Some((c, _)) = self.clearance(x, y) else {
                 disk_slack = f64::NEG_INFINITY;
+                self.failed_disk.set(i);
                 break;
             };
             disk_slack = disk_slack.min(c - self.r_disk);
             if disk_slack < self.cover {
+                self.failed_disk.set(i);
                 break;
             }
         }
