@@ -5,7 +5,7 @@
 //!
 //! ```text
 //! cargo run --release -p aisle-global-planner --example replay_requests -- \
-//!     run.mcap [--config config] [--only ID] [--repeat N]
+//!     run.mcap [--config config] [--only ID] [--repeat N] [--start]
 //! ```
 //!
 //! What a planner change does to the requests a mission really made (a sweep's failure
@@ -14,6 +14,8 @@
 //! first-use costs the mission pays), prints only the last run's table, each request's
 //! fastest and median time over the runs, and a digest of every returned path's poses
 //! (bit for bit: the same digest means the same paths), for profiling and timing.
+//! `--start` starts each stage on the record's first map, as the node starts (its map
+//! tables built and its buffers made resident before the first request).
 
 use std::hash::{DefaultHasher, Hash, Hasher};
 use std::mem::offset_of;
@@ -21,10 +23,10 @@ use std::path::PathBuf;
 
 use aisle_global_planner::node::PlannerStage;
 use aisle_messages::{
-    Header, Message, OccupancyGrid, PlanRequest, PlanResponse, PlanStatus, topics,
+    Header, Message, OccupancyGrid, PlanRequest, PlanResponse, PlanStatus, TickMode, topics,
 };
-use aisle_node::Stage;
 use aisle_node::testing::MemIo;
+use aisle_node::{RunContext, Stage};
 use aisle_tools::aligned::AlignedBuf;
 use aisle_tools::{FileMessage, RecordFile};
 
@@ -50,13 +52,14 @@ fn status_name(s: u32) -> String {
 }
 
 fn main() -> Result<(), String> {
-    let usage = "usage: replay_requests RECORD [--config DIR] [--only ID] [--repeat N]";
+    let usage = "usage: replay_requests RECORD [--config DIR] [--only ID] [--repeat N] [--start]";
     let mut args = std::env::args().skip(1);
     let (mut record, mut config, mut only) = (None, PathBuf::from("config"), None);
-    let mut repeat = 1usize;
+    let (mut repeat, mut start) = (1usize, false);
     while let Some(a) = args.next() {
         match a.as_str() {
             "--config" => config = args.next().ok_or(usage)?.into(),
+            "--start" => start = true,
             "--repeat" => {
                 let v = args.next().ok_or(usage)?;
                 repeat = v.parse().map_err(|_| format!("--repeat {v:?}"))?;
@@ -85,6 +88,9 @@ fn main() -> Result<(), String> {
     let mut digest = 0;
     for run in 0..repeat {
         let mut stage = PlannerStage::new(&config).map_err(|e| e.to_string())?;
+        if start {
+            start_stage(&mut stage, maps.first().ok_or("no map in the record")?)?;
+        }
         let print = run + 1 == repeat;
         if print {
             println!(
@@ -135,6 +141,22 @@ fn main() -> Result<(), String> {
     }
     println!("paths digest {digest:016x}");
     Ok(())
+}
+
+/// Starts `stage` on `map` as the node runtime does.
+fn start_stage(stage: &mut PlannerStage, map: &FileMessage) -> Result<(), String> {
+    let io = MemIo::new();
+    let mut err = Ok(());
+    io.push(topics::GLOBAL_MAP, |m: &mut OccupancyGrid| {
+        err = copy_into(m, map)
+    });
+    err?;
+    let ctx = RunContext {
+        mode: TickMode::Lockstep,
+        seed: 0,
+        restarted: false,
+    };
+    stage.start(&io, &ctx).map_err(|e| e.to_string())
 }
 
 /// Replays one request through `stage` on the map it had; hashes the response's status,

@@ -372,6 +372,37 @@ impl Buffers {
         self.rs_from = None;
     }
 
+    /// Sizes and touches the buffers for a search of `nodes` nodes on `grid` (`tiles`
+    /// state tiles), so that a fresh process's first long search does not fault them in
+    /// page by page nor copy them as they grow. Capacity only: the buffers stay empty.
+    pub(crate) fn warm(&mut self, grid: &SearchGrid, nodes: usize, tiles: usize) {
+        self.reset(grid);
+        self.state_node.warm(grid, tiles);
+        let blank = Node {
+            pose: Pose2::default(),
+            g: 0.0,
+            h: 0.0,
+            parent: NONE,
+            state: 0,
+            prim: 0,
+            dir: DIR_NONE,
+            closed: false,
+            h_full: false,
+        };
+        self.nodes.resize(nodes, blank);
+        self.nodes.clear();
+        // Open entries: a node's first and its raised heuristic, and reopenings.
+        let mut open = std::mem::take(&mut self.open).into_vec();
+        let entry = OpenEntry {
+            f: 0.0,
+            g: 0.0,
+            node: 0,
+        };
+        open.resize(2 * nodes, entry);
+        open.clear();
+        self.open = BinaryHeap::from(open);
+    }
+
     pub(crate) fn push_node(&mut self, n: Node) {
         let idx = self.nodes.len() as u32;
         self.state_node.set(n.state, idx);
