@@ -11,6 +11,7 @@
 use crate::distance_map::DistanceMap;
 use crate::motion::Motion;
 use aisle_geometry::{FREE, Footprint, GridView, Pose2};
+use std::cell::Cell;
 use std::f64::consts::FRAC_1_SQRT_2;
 
 /// Calls `hit(row, first_col, last_col)` for every grid row the rectangle with `corners`
@@ -180,11 +181,11 @@ fn floor_i64(v: f64) -> i64 {
     if (t as f64) > v { t - 1 } else { t }
 }
 
-/// The corners of `fp` at `p`, in the order of [`Footprint::corners`], with a single
-/// sin/cos evaluation (the library version pays one per corner).
+/// The corners of `fp` at `p`, in the order of [`Footprint::corners`], from the sine and
+/// cosine of `p.theta` (the library version pays one evaluation per corner; the probe has
+/// them already).
 #[inline]
-fn corners_fast(fp: &Footprint, p: &Pose2) -> [(f64, f64); 4] {
-    let (s, c) = p.theta.sin_cos();
+fn corners_fast(fp: &Footprint, p: &Pose2, (s, c): (f64, f64)) -> [(f64, f64); 4] {
     let (hl, hw) = (0.5 * fp.length, 0.5 * fp.width);
     [(hl, hw), (-hl, hw), (-hl, -hw), (hl, -hw)]
         .map(|(bx, by)| (p.x + c * bx - s * by, p.y + s * bx + c * by))
@@ -194,6 +195,7 @@ fn corners_fast(fp: &Footprint, p: &Pose2) -> [(f64, f64); 4] {
 const MAX_DISKS_PER_SIDE: usize = 4;
 
 /// Result of probing one pose.
+#[derive(Clone, Copy)]
 enum Probe {
     Blocked,
     /// Free, and so is every pose whose body points move at most this far from it.
@@ -216,6 +218,12 @@ pub(crate) struct FootprintChecker<'a> {
     disks: [(f64, f64); MAX_DISKS_PER_SIDE * MAX_DISKS_PER_SIDE],
     n_disks: usize,
     r_disk: f64,
+    /// The pose (bits) the last motion started from and its probe: an expansion checks
+    /// every primitive from the same pose, so its first sample is probed once, not once
+    /// per primitive (a probe is a pure function of the pose).
+    first: Cell<Option<([u64; 3], Probe)>>,
+    /// The disk whose clearance failed last, tried first.
+    failed_disk: Cell<usize>,
 }
 
 impl<'a> FootprintChecker<'a> {
@@ -247,6 +255,8 @@ impl<'a> FootprintChecker<'a> {
             disks,
             n_disks: nl * nw,
             r_disk: 0.5 * tl.hypot(tw),
+            first: Cell::new(None),
+            failed_disk: Cell::new(0),
         }
     }
 
@@ -270,7 +280,7 @@ impl<'a> FootprintChecker<'a> {
 
     /// Whether `base` at `p` is free (exact, no cover).
     pub fn pose_free(&self, p: &Pose2) -> bool {
-        !self.rect_hits(&self.base, p)
+        !self.rect_hits(&self.base, p, p.theta.sin_cos())
     }
 
     #[inline]
@@ -288,33 +298,43 @@ impl<'a> FootprintChecker<'a> {
         }
         // Every body point lies in one of the disks; if each disk keeps `cover` of
         // clearance, any pose whose body points move less than the smallest slack is free.
-        let (sin, cos) = p.theta.sin_cos();
+        let turn = p.theta.sin_cos();
+        let (sin, cos) = turn;
         let mut disk_slack = f64::INFINITY;
-        for &(bx, by) in &self.disks[..self.n_disks] {
+        // From the disk that failed last: nearby poses fail on the same side, and then
+        // the exact check decides whichever disk failed (when none fails, the least
+        // slack is the same in any order).
+        let (n, first) = (self.n_disks, self.failed_disk.get());
+        for i in (first..n).chain(0..first) {
+            let (bx, by) = self.disks[i];
             let x = p.x + cos * bx - sin * by;
             let y = p.y + sin * bx + cos * by;
             let Some((c, _)) = self.clearance(x, y) else {
                 disk_slack = f64::NEG_INFINITY;
+                self.failed_disk.set(i);
                 break;
             };
             disk_slack = disk_slack.min(c - self.r_disk);
             if disk_slack < self.cover {
+                self.failed_disk.set(i);
                 break;
             }
         }
         if disk_slack >= self.cover {
             return Probe::Free(disk_slack);
         }
-        if self.rect_hits(&self.exact, p) {
+        if self.rect_hits(&self.exact, p, turn) {
             Probe::Blocked
         } else {
             Probe::Free(self.cover)
         }
     }
 
-    fn rect_hits(&self, fp: &Footprint, p: &Pose2) -> bool {
+    /// Whether `fp` at `p` (whose heading has the sine and cosine `turn`) touches an
+    /// occupied cell or leaves the grid.
+    fn rect_hits(&self, fp: &Footprint, p: &Pose2, turn: (f64, f64)) -> bool {
         let dm = self.dm;
-        let corners = corners_fast(fp, p);
+        let corners = corners_fast(fp, p, turn);
         let (w, h) = (dm.width as i64, dm.height as i64);
         rect_row_spans_fast(
             &corners,
@@ -331,19 +351,41 @@ impl<'a> FootprintChecker<'a> {
         )
     }
 
+    /// [`FootprintChecker::probe`] of the first sample of a motion, kept for the next
+    /// motion that starts at the same pose (bit for bit).
+    #[inline]
+    fn first_probe(&self, p: &Pose2) -> Probe {
+        let key = [p.x.to_bits(), p.y.to_bits(), p.theta.to_bits()];
+        if let Some((k, probe)) = self.first.get()
+            && k == key
+        {
+            return probe;
+        }
+        let probe = self.probe(p);
+        self.first.set(Some((key, probe)));
+        probe
+    }
+
     /// Whether `base` stays free at every pose of `motion` from `from` (continuously, not
     /// only at samples). Returns the number of probes through `probes`.
     pub fn motion_free(&self, from: &Pose2, motion: &Motion, probes: &mut u64) -> bool {
         let total = motion.sweep_bound(from, self.r_circ);
+        // Every sample turns from the same heading.
+        let turn = from.theta.sin_cos();
         let mut s = 0.0;
         loop {
             let p = if s >= 1.0 {
-                motion.end(from)
+                motion.end_turned(from, turn)
             } else {
-                motion.at(from, s)
+                motion.at_turned(from, s, turn)
             };
             *probes += 1;
-            let reach = match self.probe(&p) {
+            let probe = if s == 0.0 {
+                self.first_probe(&p)
+            } else {
+                self.probe(&p)
+            };
+            let reach = match probe {
                 Probe::Blocked => return false,
                 Probe::Free(r) => r,
             };
@@ -433,7 +475,7 @@ mod tests {
         for k in 0..400 {
             let t = f64::from(k);
             let p = Pose2::new(0.37 * t % 3.0, 0.53 * t % 2.0, 0.0917 * t);
-            let corners = corners_fast(&fp, &p);
+            let corners = corners_fast(&fp, &p, p.theta.sin_cos());
             plain.clear();
             fast.clear();
             rect_row_spans(&corners, ox, oy, res, |r, a, b| {

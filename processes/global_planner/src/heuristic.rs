@@ -131,6 +131,22 @@ impl GridHeuristic {
         true
     }
 
+    /// Sizes and touches its tables for `dm` with cells of about `cell_size` metres before
+    /// its first request (the body is not known yet: the first `begin` fills them).
+    /// Nothing once it has served a request.
+    pub fn warm(&mut self, dm: &DistanceMap, cell_size: f64) {
+        if self.key.is_some() {
+            return;
+        }
+        let f = ((cell_size / dm.resolution).round() as usize).max(1);
+        let n = (dm.width.div_ceil(f) + 2) * (dm.height.div_ceil(f) + 2);
+        self.g.resize(n, BLOCKED);
+        self.g.clear();
+        self.closed.resize(n, false);
+        self.closed.clear();
+        self.touched.reserve(n);
+    }
+
     /// Whether its blocked cells are for a body of inscribed radius `r_in`.
     pub fn serves(&self, r_in: f64) -> bool {
         self.key.is_some_and(|k| k.1 == r_in.to_bits())

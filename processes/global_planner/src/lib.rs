@@ -32,6 +32,7 @@
 //! # Ok(()) }
 //! ```
 
+mod angle;
 mod blocked;
 mod collision;
 pub mod config;

@@ -5,10 +5,12 @@
 //!
 //! Knows nothing of grids or collision; pure arithmetic on poses.
 
+// Bit for bit `aisle_geometry::wrap_angle`, without its `fmod` call within one turn.
+use crate::angle::wrap as wrap_angle;
 use crate::config::PlannerConfig;
 use crate::motion::Motion;
 use crate::reeds_shepp::{Candidates, RsPath};
-use aisle_geometry::{Pose2, wrap_angle};
+use aisle_geometry::Pose2;
 use std::f64::consts::{PI, TAU};
 
 /// Direction codes stored in search nodes.

@@ -5,7 +5,9 @@
 //! Knows nothing of grids, costs or search; every motion is a pure function of its start
 //! pose and a fraction in [0, 1], so samples are reproducible bit for bit.
 
-use aisle_geometry::{Direction, Pose2, wrap_angle};
+// Bit for bit `aisle_geometry::wrap_angle`, without its `fmod` call within one turn.
+use crate::angle::wrap as wrap_angle;
+use aisle_geometry::{Direction, Pose2};
 
 /// One motion with constant controls.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -26,19 +28,7 @@ impl Motion {
     pub fn at(&self, from: &Pose2, s: f64) -> Pose2 {
         match *self {
             Motion::Drive { length, curvature } => {
-                let d = length * s;
-                let dth = d * curvature;
-                let (lx, ly) = if curvature.abs() < 1e-12 {
-                    (d, 0.0)
-                } else {
-                    (dth.sin() / curvature, (1.0 - dth.cos()) / curvature)
-                };
-                let (sn, cs) = from.theta.sin_cos();
-                Pose2::new(
-                    from.x + cs * lx - sn * ly,
-                    from.y + sn * lx + cs * ly,
-                    wrap_angle(from.theta + dth),
-                )
+                drive_at(from, length, curvature, s, from.theta.sin_cos())
             }
             Motion::Rotate { angle } => {
                 Pose2::new(from.x, from.y, wrap_angle(from.theta + angle * s))
@@ -60,6 +50,26 @@ impl Motion {
         match *self {
             Motion::Lerp { to } => to,
             _ => self.at(from, 1.0),
+        }
+    }
+
+    /// [`Motion::at`] with `turn`, the sine and cosine of `from.theta`, given: a sweep
+    /// samples many fractions of one motion, and an expansion many motions from one
+    /// pose. The same bits as `at`.
+    #[inline]
+    pub(crate) fn at_turned(&self, from: &Pose2, s: f64, turn: (f64, f64)) -> Pose2 {
+        match *self {
+            Motion::Drive { length, curvature } => drive_at(from, length, curvature, s, turn),
+            _ => self.at(from, s),
+        }
+    }
+
+    /// [`Motion::end`] with the sine and cosine of `from.theta` given.
+    #[inline]
+    pub(crate) fn end_turned(&self, from: &Pose2, turn: (f64, f64)) -> Pose2 {
+        match *self {
+            Motion::Lerp { to } => to,
+            _ => self.at_turned(from, 1.0, turn),
         }
     }
 
@@ -111,6 +121,24 @@ impl Motion {
     pub fn sweep_bound(&self, from: &Pose2, body_radius: f64) -> f64 {
         self.travel(from) + body_radius * self.turn(from)
     }
+}
+
+/// The pose after the fraction `s` of driving `length` at `curvature` from `from`, whose
+/// heading has the sine and cosine `(sn, cs)`.
+#[inline]
+fn drive_at(from: &Pose2, length: f64, curvature: f64, s: f64, (sn, cs): (f64, f64)) -> Pose2 {
+    let d = length * s;
+    let dth = d * curvature;
+    let (lx, ly) = if curvature.abs() < 1e-12 {
+        (d, 0.0)
+    } else {
+        (dth.sin() / curvature, (1.0 - dth.cos()) / curvature)
+    };
+    Pose2::new(
+        from.x + cs * lx - sn * ly,
+        from.y + sn * lx + cs * ly,
+        wrap_angle(from.theta + dth),
+    )
 }
 
 #[cfg(test)]

@@ -163,9 +163,11 @@ impl Stage for PlannerStage {
                 && update(&mut self.map, &mut self.static_map, &m)
             {
                 // The tables of the static layer (first plans of a leg use it; replans
-                // ask for the detections too), built before the first request.
+                // ask for the detections too), built before the first request, and the
+                // search's buffers made resident (a fresh process faults them in).
                 if let Ok(view) = self.static_map.view() {
                     self.planner.prepare(&view);
+                    self.planner.warm_up(&view);
                 }
                 return Ok(());
             }

@@ -7,8 +7,9 @@
 //! that exists, so a caller can rank them by its own cost (reverse driving is dearer than
 //! forward for the planner). Knows nothing of obstacles.
 
+use crate::angle::wrap;
 use crate::motion::Motion;
-use aisle_geometry::{Pose2, wrap_angle};
+use aisle_geometry::Pose2;
 use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Tolerance on the sign conditions of the closed-form solutions.
@@ -125,12 +126,29 @@ pub fn solve(start: &Pose2, goal: &Pose2, radius: f64, out: &mut Candidates) {
     let (lx, ly) = start.inverse_transform_point(goal.x, goal.y);
     let x = lx / radius;
     let y = ly / radius;
-    let phi = wrap_angle(goal.theta - start.theta);
-    csc(x, y, phi, out);
-    ccc(x, y, phi, out);
-    cccc(x, y, phi, out);
-    ccsc(x, y, phi, out);
-    ccscc(x, y, phi, out);
+    let phi = wrap(goal.theta - start.theta);
+    // The eight symmetric problems each family solves (time flip, reflection, both; then
+    // the same of the backwards problem), with the terms their words share.
+    let (sp, cp, sm, cm) = (phi.sin(), phi.cos(), (-phi).sin(), (-phi).cos());
+    let xb = x * cp + y * sp;
+    let yb = x * sp - y * cp;
+    let fwd = [
+        Variant::new(x, y, phi, sp, cp, true),
+        Variant::new(-x, y, -phi, sm, cm, true),
+        Variant::new(x, -y, -phi, sm, cm, true),
+        Variant::new(-x, -y, phi, sp, cp, true),
+    ];
+    let back = [
+        Variant::new(xb, yb, phi, sp, cp, false),
+        Variant::new(-xb, yb, -phi, sm, cm, false),
+        Variant::new(xb, -yb, -phi, sm, cm, false),
+        Variant::new(-xb, -yb, phi, sp, cp, false),
+    ];
+    csc(&fwd, out);
+    ccc(&fwd, &back, out);
+    cccc(&fwd, out);
+    ccsc(&fwd, &back, out);
+    ccscc(&fwd, out);
 }
 
 /// The shortest candidate, if any.
@@ -153,27 +171,83 @@ fn polar(x: f64, y: f64) -> (f64, f64) {
     (x.hypot(y), y.atan2(x))
 }
 
+/// One of the symmetric problems (x, y, phi) and the terms its words share, each
+/// computed once by the very expression every word used to evaluate on its own (so the
+/// candidates are the same bits; `atan2`, `hypot` and `sin`/`cos` were most of the
+/// solver's time, and the free-space heuristic solves once per node).
+struct Variant {
+    phi: f64,
+    /// The polar form (rho, theta) of (`x - sin phi`, `y - 1 + cos phi`): the centre
+    /// terms of L+S+L+, L+R-L and L+R-S-L-.
+    a_polar: (f64, f64),
+    /// `x + sin phi`, `y - 1 - cos phi`: the centre terms of L+S+R+, the CCCC words,
+    /// L+R-S-R- and L+R-S-L-R+.
+    b: (f64, f64),
+    /// Polar form of `b` (forward variants only: the backward problems use `b` in
+    /// L+R-S-R- alone, which takes the polar form of (-eta, xi)).
+    b_polar: (f64, f64),
+}
+
+impl Variant {
+    #[inline]
+    fn new(x: f64, y: f64, phi: f64, sin: f64, cos: f64, with_b_polar: bool) -> Variant {
+        let a = (x - sin, y - 1.0 + cos);
+        let b = (x + sin, y - 1.0 - cos);
+        Variant {
+            phi,
+            a_polar: polar(a.0, a.1),
+            b,
+            b_polar: if with_b_polar {
+                polar(b.0, b.1)
+            } else {
+                (f64::NAN, f64::NAN)
+            },
+        }
+    }
+}
+
 #[inline]
 fn tau_omega(u: f64, v: f64, xi: f64, eta: f64, phi: f64) -> (f64, f64) {
-    let delta = wrap_angle(u - v);
+    let delta = wrap(u - v);
     let a = u.sin() - delta.sin();
     let b = u.cos() - delta.cos() - 1.0;
     let t1 = (eta * a - xi * b).atan2(xi * a + eta * b);
     let t2 = 2.0 * (delta.cos() - v.cos() - u.cos()) + 3.0;
-    let tau = if t2 < 0.0 {
-        wrap_angle(t1 + PI)
-    } else {
-        wrap_angle(t1)
-    };
-    let omega = wrap_angle(tau - u + v - phi);
+    let tau = if t2 < 0.0 { wrap(t1 + PI) } else { wrap(t1) };
+    let omega = wrap(tau - u + v - phi);
     (tau, omega)
 }
 
+/// Pushes `word` with the lengths `lengths(t, u, v, h)` makes of each variant's
+/// solution, in the order of the variants: the time flip and reflection symmetries of
+/// one formula. `h` is the signed quarter turn of the words that have one.
+#[inline]
+fn push_flips(
+    out: &mut Candidates,
+    vs: &[Variant; 4],
+    formula: fn(&Variant) -> Option<(f64, f64, f64)>,
+    word: usize,
+    lengths: fn(f64, f64, f64, f64) -> [f64; 5],
+) {
+    for (k, vr) in vs.iter().enumerate() {
+        if let Some((t, u, v)) = formula(vr) {
+            // Variants 1 and 3 are time-flipped: every length changes sign (the unused
+            // tail stays +0); 2 and 3 are reflected: the mirror word follows in `WORDS`.
+            let l = if k % 2 == 1 {
+                lengths(-t, -u, -v, -FRAC_PI_2)
+            } else {
+                lengths(t, u, v, FRAC_PI_2)
+            };
+            out.push(word + k / 2, l);
+        }
+    }
+}
+
 // Formula 8.1: L+ S+ L+.
-fn lp_sp_lp(x: f64, y: f64, phi: f64) -> Option<(f64, f64, f64)> {
-    let (u, t) = polar(x - phi.sin(), y - 1.0 + phi.cos());
+fn lp_sp_lp(vr: &Variant) -> Option<(f64, f64, f64)> {
+    let (u, t) = vr.a_polar;
     if t >= -ZERO {
-        let v = wrap_angle(phi - t);
+        let v = wrap(vr.phi - t);
         if v >= -ZERO {
             return Some((t, u, v));
         }
@@ -182,14 +256,14 @@ fn lp_sp_lp(x: f64, y: f64, phi: f64) -> Option<(f64, f64, f64)> {
 }
 
 // Formula 8.2: L+ S+ R+.
-fn lp_sp_rp(x: f64, y: f64, phi: f64) -> Option<(f64, f64, f64)> {
-    let (u1, t1) = polar(x + phi.sin(), y - 1.0 - phi.cos());
+fn lp_sp_rp(vr: &Variant) -> Option<(f64, f64, f64)> {
+    let (u1, t1) = vr.b_polar;
     let u1 = u1 * u1;
     if u1 >= 4.0 {
         let u = (u1 - 4.0).sqrt();
         let theta = 2.0_f64.atan2(u);
-        let t = wrap_angle(t1 + theta);
-        let v = wrap_angle(t - phi);
+        let t = wrap(t1 + theta);
+        let v = wrap(t - vr.phi);
         if t >= -ZERO && v >= -ZERO {
             return Some((t, u, v));
         }
@@ -197,42 +271,18 @@ fn lp_sp_rp(x: f64, y: f64, phi: f64) -> Option<(f64, f64, f64)> {
     None
 }
 
-fn csc(x: f64, y: f64, phi: f64, out: &mut Candidates) {
-    if let Some((t, u, v)) = lp_sp_lp(x, y, phi) {
-        out.push(14, [t, u, v, 0.0, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_sp_lp(-x, y, -phi) {
-        out.push(14, [-t, -u, -v, 0.0, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_sp_lp(x, -y, -phi) {
-        out.push(15, [t, u, v, 0.0, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_sp_lp(-x, -y, phi) {
-        out.push(15, [-t, -u, -v, 0.0, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_sp_rp(x, y, phi) {
-        out.push(12, [t, u, v, 0.0, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_sp_rp(-x, y, -phi) {
-        out.push(12, [-t, -u, -v, 0.0, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_sp_rp(x, -y, -phi) {
-        out.push(13, [t, u, v, 0.0, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_sp_rp(-x, -y, phi) {
-        out.push(13, [-t, -u, -v, 0.0, 0.0]);
-    }
+fn csc(fwd: &[Variant; 4], out: &mut Candidates) {
+    push_flips(out, fwd, lp_sp_lp, 14, |t, u, v, _| [t, u, v, 0.0, 0.0]);
+    push_flips(out, fwd, lp_sp_rp, 12, |t, u, v, _| [t, u, v, 0.0, 0.0]);
 }
 
 // Formulas 8.3 / 8.4: L+ R- L.
-fn lp_rm_l(x: f64, y: f64, phi: f64) -> Option<(f64, f64, f64)> {
-    let xi = x - phi.sin();
-    let eta = y - 1.0 + phi.cos();
-    let (u1, theta) = polar(xi, eta);
+fn lp_rm_l(vr: &Variant) -> Option<(f64, f64, f64)> {
+    let (u1, theta) = vr.a_polar;
     if u1 <= 4.0 {
         let u = -2.0 * (0.25 * u1).asin();
-        let t = wrap_angle(theta + 0.5 * u + PI);
-        let v = wrap_angle(phi - t + u);
+        let t = wrap(theta + 0.5 * u + PI);
+        let v = wrap(vr.phi - t + u);
         if t >= -ZERO && u <= ZERO {
             return Some((t, u, v));
         }
@@ -240,43 +290,18 @@ fn lp_rm_l(x: f64, y: f64, phi: f64) -> Option<(f64, f64, f64)> {
     None
 }
 
-fn ccc(x: f64, y: f64, phi: f64, out: &mut Candidates) {
-    if let Some((t, u, v)) = lp_rm_l(x, y, phi) {
-        out.push(0, [t, u, v, 0.0, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rm_l(-x, y, -phi) {
-        out.push(0, [-t, -u, -v, 0.0, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rm_l(x, -y, -phi) {
-        out.push(1, [t, u, v, 0.0, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rm_l(-x, -y, phi) {
-        out.push(1, [-t, -u, -v, 0.0, 0.0]);
-    }
-    let xb = x * phi.cos() + y * phi.sin();
-    let yb = x * phi.sin() - y * phi.cos();
-    if let Some((t, u, v)) = lp_rm_l(xb, yb, phi) {
-        out.push(0, [v, u, t, 0.0, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rm_l(-xb, yb, -phi) {
-        out.push(0, [-v, -u, -t, 0.0, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rm_l(xb, -yb, -phi) {
-        out.push(1, [v, u, t, 0.0, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rm_l(-xb, -yb, phi) {
-        out.push(1, [-v, -u, -t, 0.0, 0.0]);
-    }
+fn ccc(fwd: &[Variant; 4], back: &[Variant; 4], out: &mut Candidates) {
+    push_flips(out, fwd, lp_rm_l, 0, |t, u, v, _| [t, u, v, 0.0, 0.0]);
+    push_flips(out, back, lp_rm_l, 0, |t, u, v, _| [v, u, t, 0.0, 0.0]);
 }
 
 // Formula 8.7: L+ R+ L- R-.
-fn lp_rup_lum_rm(x: f64, y: f64, phi: f64) -> Option<(f64, f64, f64)> {
-    let xi = x + phi.sin();
-    let eta = y - 1.0 - phi.cos();
-    let rho = 0.25 * (2.0 + xi.hypot(eta));
+fn lp_rup_lum_rm(vr: &Variant) -> Option<(f64, f64, f64)> {
+    let (xi, eta) = vr.b;
+    let rho = 0.25 * (2.0 + vr.b_polar.0);
     if rho <= 1.0 {
         let u = rho.acos();
-        let (t, v) = tau_omega(u, -u, xi, eta, phi);
+        let (t, v) = tau_omega(u, -u, xi, eta, vr.phi);
         if t >= -ZERO && v <= ZERO {
             return Some((t, u, v));
         }
@@ -285,14 +310,13 @@ fn lp_rup_lum_rm(x: f64, y: f64, phi: f64) -> Option<(f64, f64, f64)> {
 }
 
 // Formula 8.8: L+ R- L- R+.
-fn lp_rum_lum_rp(x: f64, y: f64, phi: f64) -> Option<(f64, f64, f64)> {
-    let xi = x + phi.sin();
-    let eta = y - 1.0 - phi.cos();
+fn lp_rum_lum_rp(vr: &Variant) -> Option<(f64, f64, f64)> {
+    let (xi, eta) = vr.b;
     let rho = (20.0 - xi * xi - eta * eta) / 16.0;
     if (0.0..=1.0).contains(&rho) {
         let u = -rho.acos();
         if u >= -FRAC_PI_2 {
-            let (t, v) = tau_omega(u, u, xi, eta, phi);
+            let (t, v) = tau_omega(u, u, xi, eta, vr.phi);
             if t >= -ZERO && v >= -ZERO {
                 return Some((t, u, v));
             }
@@ -301,43 +325,19 @@ fn lp_rum_lum_rp(x: f64, y: f64, phi: f64) -> Option<(f64, f64, f64)> {
     None
 }
 
-fn cccc(x: f64, y: f64, phi: f64, out: &mut Candidates) {
-    if let Some((t, u, v)) = lp_rup_lum_rm(x, y, phi) {
-        out.push(2, [t, u, -u, v, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rup_lum_rm(-x, y, -phi) {
-        out.push(2, [-t, -u, u, -v, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rup_lum_rm(x, -y, -phi) {
-        out.push(3, [t, u, -u, v, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rup_lum_rm(-x, -y, phi) {
-        out.push(3, [-t, -u, u, -v, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rum_lum_rp(x, y, phi) {
-        out.push(2, [t, u, u, v, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rum_lum_rp(-x, y, -phi) {
-        out.push(2, [-t, -u, -u, -v, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rum_lum_rp(x, -y, -phi) {
-        out.push(3, [t, u, u, v, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rum_lum_rp(-x, -y, phi) {
-        out.push(3, [-t, -u, -u, -v, 0.0]);
-    }
+fn cccc(fwd: &[Variant; 4], out: &mut Candidates) {
+    push_flips(out, fwd, lp_rup_lum_rm, 2, |t, u, v, _| [t, u, -u, v, 0.0]);
+    push_flips(out, fwd, lp_rum_lum_rp, 2, |t, u, v, _| [t, u, u, v, 0.0]);
 }
 
 // Formula 8.9: L+ R-(pi/2) S- L-.
-fn lp_rm_sm_lm(x: f64, y: f64, phi: f64) -> Option<(f64, f64, f64)> {
-    let xi = x - phi.sin();
-    let eta = y - 1.0 + phi.cos();
-    let (rho, theta) = polar(xi, eta);
+fn lp_rm_sm_lm(vr: &Variant) -> Option<(f64, f64, f64)> {
+    let (rho, theta) = vr.a_polar;
     if rho >= 2.0 {
         let r = (rho * rho - 4.0).sqrt();
         let u = 2.0 - r;
-        let t = wrap_angle(theta + r.atan2(-2.0));
-        let v = wrap_angle(phi - FRAC_PI_2 - t);
+        let t = wrap(theta + r.atan2(-2.0));
+        let v = wrap(vr.phi - FRAC_PI_2 - t);
         if t >= -ZERO && u <= ZERO && v <= ZERO {
             return Some((t, u, v));
         }
@@ -346,14 +346,13 @@ fn lp_rm_sm_lm(x: f64, y: f64, phi: f64) -> Option<(f64, f64, f64)> {
 }
 
 // Formula 8.10: L+ R-(pi/2) S- R-.
-fn lp_rm_sm_rm(x: f64, y: f64, phi: f64) -> Option<(f64, f64, f64)> {
-    let xi = x + phi.sin();
-    let eta = y - 1.0 - phi.cos();
+fn lp_rm_sm_rm(vr: &Variant) -> Option<(f64, f64, f64)> {
+    let (xi, eta) = vr.b;
     let (rho, theta) = polar(-eta, xi);
     if rho >= 2.0 {
         let t = theta;
         let u = 2.0 - rho;
-        let v = wrap_angle(t + FRAC_PI_2 - phi);
+        let v = wrap(t + FRAC_PI_2 - vr.phi);
         if t >= -ZERO && u <= ZERO && v <= ZERO {
             return Some((t, u, v));
         }
@@ -361,70 +360,22 @@ fn lp_rm_sm_rm(x: f64, y: f64, phi: f64) -> Option<(f64, f64, f64)> {
     None
 }
 
-fn ccsc(x: f64, y: f64, phi: f64, out: &mut Candidates) {
-    let h = FRAC_PI_2;
-    if let Some((t, u, v)) = lp_rm_sm_lm(x, y, phi) {
-        out.push(4, [t, -h, u, v, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rm_sm_lm(-x, y, -phi) {
-        out.push(4, [-t, h, -u, -v, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rm_sm_lm(x, -y, -phi) {
-        out.push(5, [t, -h, u, v, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rm_sm_lm(-x, -y, phi) {
-        out.push(5, [-t, h, -u, -v, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rm_sm_rm(x, y, phi) {
-        out.push(8, [t, -h, u, v, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rm_sm_rm(-x, y, -phi) {
-        out.push(8, [-t, h, -u, -v, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rm_sm_rm(x, -y, -phi) {
-        out.push(9, [t, -h, u, v, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rm_sm_rm(-x, -y, phi) {
-        out.push(9, [-t, h, -u, -v, 0.0]);
-    }
-    let xb = x * phi.cos() + y * phi.sin();
-    let yb = x * phi.sin() - y * phi.cos();
-    if let Some((t, u, v)) = lp_rm_sm_lm(xb, yb, phi) {
-        out.push(6, [v, u, -h, t, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rm_sm_lm(-xb, yb, -phi) {
-        out.push(6, [-v, -u, h, -t, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rm_sm_lm(xb, -yb, -phi) {
-        out.push(7, [v, u, -h, t, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rm_sm_lm(-xb, -yb, phi) {
-        out.push(7, [-v, -u, h, -t, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rm_sm_rm(xb, yb, phi) {
-        out.push(10, [v, u, -h, t, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rm_sm_rm(-xb, yb, -phi) {
-        out.push(10, [-v, -u, h, -t, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rm_sm_rm(xb, -yb, -phi) {
-        out.push(11, [v, u, -h, t, 0.0]);
-    }
-    if let Some((t, u, v)) = lp_rm_sm_rm(-xb, -yb, phi) {
-        out.push(11, [-v, -u, h, -t, 0.0]);
-    }
+fn ccsc(fwd: &[Variant; 4], back: &[Variant; 4], out: &mut Candidates) {
+    push_flips(out, fwd, lp_rm_sm_lm, 4, |t, u, v, h| [t, -h, u, v, 0.0]);
+    push_flips(out, fwd, lp_rm_sm_rm, 8, |t, u, v, h| [t, -h, u, v, 0.0]);
+    push_flips(out, back, lp_rm_sm_lm, 6, |t, u, v, h| [v, u, -h, t, 0.0]);
+    push_flips(out, back, lp_rm_sm_rm, 10, |t, u, v, h| [v, u, -h, t, 0.0]);
 }
 
 // Formula 8.11: L+ R-(pi/2) S- L-(pi/2) R+.
-fn lp_rm_s_lm_rp(x: f64, y: f64, phi: f64) -> Option<(f64, f64, f64)> {
-    let xi = x + phi.sin();
-    let eta = y - 1.0 - phi.cos();
-    let (rho, _) = polar(xi, eta);
+fn lp_rm_s_lm_rp(vr: &Variant) -> Option<(f64, f64, f64)> {
+    let (xi, eta) = vr.b;
+    let rho = vr.b_polar.0;
     if rho >= 2.0 {
         let u = 4.0 - (rho * rho - 4.0).sqrt();
         if u <= ZERO {
-            let t = wrap_angle(((4.0 - u) * xi - 2.0 * eta).atan2(-2.0 * xi + (u - 4.0) * eta));
-            let v = wrap_angle(t - phi);
+            let t = wrap(((4.0 - u) * xi - 2.0 * eta).atan2(-2.0 * xi + (u - 4.0) * eta));
+            let v = wrap(t - vr.phi);
             if t >= -ZERO && v >= -ZERO {
                 return Some((t, u, v));
             }
@@ -433,125 +384,9 @@ fn lp_rm_s_lm_rp(x: f64, y: f64, phi: f64) -> Option<(f64, f64, f64)> {
     None
 }
 
-fn ccscc(x: f64, y: f64, phi: f64, out: &mut Candidates) {
-    let h = FRAC_PI_2;
-    if let Some((t, u, v)) = lp_rm_s_lm_rp(x, y, phi) {
-        out.push(16, [t, -h, u, -h, v]);
-    }
-    if let Some((t, u, v)) = lp_rm_s_lm_rp(-x, y, -phi) {
-        out.push(16, [-t, h, -u, h, -v]);
-    }
-    if let Some((t, u, v)) = lp_rm_s_lm_rp(x, -y, -phi) {
-        out.push(17, [t, -h, u, -h, v]);
-    }
-    if let Some((t, u, v)) = lp_rm_s_lm_rp(-x, -y, phi) {
-        out.push(17, [-t, h, -u, h, -v]);
-    }
+fn ccscc(fwd: &[Variant; 4], out: &mut Candidates) {
+    push_flips(out, fwd, lp_rm_s_lm_rp, 16, |t, u, v, h| [t, -h, u, -h, v]);
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A small deterministic generator so the property tests need no RNG crate.
-    struct Lcg(u64);
-    impl Lcg {
-        fn next(&mut self) -> f64 {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (self.0 >> 11) as f64 / (1u64 << 53) as f64
-        }
-        fn pose(&mut self, span: f64) -> Pose2 {
-            Pose2::new(
-                (self.next() - 0.5) * span,
-                (self.next() - 0.5) * span,
-                (self.next() - 0.5) * 2.0 * PI,
-            )
-        }
-    }
-
-    fn close(a: &Pose2, b: &Pose2, tol: f64) -> bool {
-        a.distance(b) < tol && a.heading_error(b) < tol
-    }
-
-    #[test]
-    fn every_candidate_ends_at_the_goal() {
-        let mut rng = Lcg(7);
-        let mut c = Candidates::default();
-        let mut seen_words = [false; 18];
-        for _ in 0..3000 {
-            let a = rng.pose(8.0);
-            let b = rng.pose(8.0);
-            let radius = 0.3 + rng.next() * 1.5;
-            solve(&a, &b, radius, &mut c);
-            assert!(!c.as_slice().is_empty());
-            for p in c.as_slice() {
-                let e = p.end_pose(&a, radius);
-                assert!(
-                    close(&e, &b, 1e-6),
-                    "{p:?} from {a:?} ends at {e:?}, not {b:?}"
-                );
-                let w = WORDS.iter().position(|w| *w == p.steer).unwrap();
-                seen_words[w] = true;
-            }
-        }
-        assert!(
-            seen_words.iter().all(|s| *s),
-            "every word shape occurs: {seen_words:?}"
-        );
-    }
-
-    #[test]
-    fn sampled_path_ends_at_the_goal() {
-        let a = Pose2::new(1.0, 2.0, 0.3);
-        let b = Pose2::new(-2.0, 1.0, 2.5);
-        let p = shortest(&a, &b, 0.8).unwrap();
-        let mut pose = a;
-        for m in p.motions(0.8) {
-            let n = 17;
-            let mut last = pose;
-            for k in 1..=n {
-                last = m.at(&pose, k as f64 / n as f64);
-            }
-            pose = last;
-        }
-        assert!(close(&pose, &b, 1e-9));
-    }
-
-    #[test]
-    fn known_lengths() {
-        let o = Pose2::default();
-        assert!((distance(&o, &Pose2::new(3.0, 0.0, 0.0), 1.0) - 3.0).abs() < 1e-12);
-        assert!((distance(&o, &Pose2::new(-3.0, 0.0, 0.0), 1.0) - 3.0).abs() < 1e-12);
-        // A quarter circle of radius 2 to the left.
-        let q = distance(&o, &Pose2::new(2.0, 2.0, FRAC_PI_2), 2.0);
-        assert!((q - PI).abs() < 1e-9, "{q}");
-        assert_eq!(distance(&o, &o, 1.0), 0.0);
-        // Sideways by 1 with the same heading needs more than the straight distance.
-        assert!(distance(&o, &Pose2::new(0.0, 1.0, 0.0), 1.0) > 1.0 + 1e-3);
-    }
-
-    #[test]
-    fn symmetric_triangle_and_lower_bound() {
-        let mut rng = Lcg(11);
-        for _ in 0..1500 {
-            let a = rng.pose(6.0);
-            let b = rng.pose(6.0);
-            let c = rng.pose(6.0);
-            let r = 0.5 + rng.next();
-            let ab = distance(&a, &b, r);
-            let ba = distance(&b, &a, r);
-            assert!((ab - ba).abs() < 1e-6 * (1.0 + ab), "{ab} vs {ba}");
-            let bc = distance(&b, &c, r);
-            let ac = distance(&a, &c, r);
-            assert!(ac <= ab + bc + 1e-6, "{ac} > {ab} + {bc}");
-            assert!(ab + 1e-9 >= a.distance(&b));
-            // Shortest path is invariant under a common rigid motion of both poses.
-            let t = Pose2::new(0.7, -1.3, 0.9);
-            let moved = distance(&t.compose(&a), &t.compose(&b), r);
-            assert!((moved - ab).abs() < 1e-6 * (1.0 + ab));
-        }
-    }
-}
+mod tests;

@@ -69,6 +69,9 @@ pub(crate) struct Buffers {
     pub(crate) state_node: StateTable,
     pub(crate) open: BinaryHeap<OpenEntry>,
     pub(crate) rs: Candidates,
+    /// The pose (bits) `rs` holds the candidates from, to this request's goal: a node's
+    /// analytic expansion usually follows its free-space heuristic, which solved them.
+    pub(crate) rs_from: Option<[u64; 3]>,
     pub(crate) shots: Vec<Shot>,
     pub(crate) chain: Vec<u32>,
     pub(crate) smooth_scratch: Vec<PathPose>,
@@ -180,6 +183,7 @@ impl Search<'_> {
                 let h_free = self
                     .model
                     .free_space_cost(&node.pose, &self.goal, &mut self.buf.rs);
+                self.buf.rs_from = Some(pose_bits(&node.pose));
                 let n = &mut self.buf.nodes[ni];
                 n.h_full = true;
                 if h_free > n.h + 1e-9 {
@@ -256,7 +260,11 @@ impl Search<'_> {
     /// is collision free and lands on the goal ends the search.
     pub(crate) fn analytic_expansion(&mut self, node: &Node) -> Option<Shot> {
         let (model, buf) = (self.model, &mut *self.buf);
-        crate::reeds_shepp::solve(&node.pose, &self.goal, model.radius, &mut buf.rs);
+        let from = Some(pose_bits(&node.pose));
+        if buf.rs_from != from {
+            crate::reeds_shepp::solve(&node.pose, &self.goal, model.radius, &mut buf.rs);
+            buf.rs_from = from;
+        }
         buf.shots.clear();
         for p in buf.rs.as_slice() {
             buf.shots.push(model.rs_shot(p, node.dir));
@@ -283,8 +291,9 @@ impl Search<'_> {
     #[inline]
     pub(crate) fn expand(&mut self, ni: usize, node: &Node) {
         let model = self.model;
+        let turn = node.pose.theta.sin_cos();
         for (pi, prim) in model.prims.iter().enumerate() {
-            let pose = prim.end(&node.pose);
+            let pose = prim.end_turned(&node.pose, turn);
             let Some(state) = self.grid.state(&pose, model.bin(pose.theta)) else {
                 continue;
             };
@@ -326,6 +335,12 @@ impl Search<'_> {
     }
 }
 
+/// A pose's bits, to know a result computed from it again.
+#[inline]
+fn pose_bits(p: &Pose2) -> [u64; 3] {
+    [p.x.to_bits(), p.y.to_bits(), p.theta.to_bits()]
+}
+
 /// The goal test of an analytic expansion: every motion of `shot` from `from` is
 /// collision free and the chain ends on the goal.
 #[inline]
@@ -354,6 +369,38 @@ impl Buffers {
         self.state_node.reset(grid);
         self.nodes.clear();
         self.open.clear();
+        self.rs_from = None;
+    }
+
+    /// Sizes and touches the buffers for a search of `nodes` nodes on `grid` (`tiles`
+    /// state tiles), so that a fresh process's first long search does not fault them in
+    /// page by page nor copy them as they grow. Capacity only: the buffers stay empty.
+    pub(crate) fn warm(&mut self, grid: &SearchGrid, nodes: usize, tiles: usize) {
+        self.reset(grid);
+        self.state_node.warm(grid, tiles);
+        let blank = Node {
+            pose: Pose2::default(),
+            g: 0.0,
+            h: 0.0,
+            parent: NONE,
+            state: 0,
+            prim: 0,
+            dir: DIR_NONE,
+            closed: false,
+            h_full: false,
+        };
+        self.nodes.resize(nodes, blank);
+        self.nodes.clear();
+        // Open entries: a node's first and its raised heuristic, and reopenings.
+        let mut open = std::mem::take(&mut self.open).into_vec();
+        let entry = OpenEntry {
+            f: 0.0,
+            g: 0.0,
+            node: 0,
+        };
+        open.resize(2 * nodes, entry);
+        open.clear();
+        self.open = BinaryHeap::from(open);
     }
 
     pub(crate) fn push_node(&mut self, n: Node) {

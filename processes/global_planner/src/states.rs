@@ -96,6 +96,16 @@ impl StateTable {
         }
     }
 
+    /// Makes `tiles` tile slots for `grid` ahead of any search (touched, so resident):
+    /// the slots a search takes are then ones already made. Right after a reset only.
+    pub(crate) fn warm(&mut self, grid: &SearchGrid, tiles: usize) {
+        self.reset(grid);
+        while self.slots.len() < tiles {
+            self.slots
+                .push(vec![NONE; 1 << self.local_bits].into_boxed_slice());
+        }
+    }
+
     #[inline]
     pub(crate) fn get(&self, state: u32) -> u32 {
         let slot = self.index[(state >> self.local_bits) as usize];

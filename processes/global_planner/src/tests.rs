@@ -165,6 +165,27 @@ fn seed_segments_at_10_and_20_cells_per_metre() {
     }
 }
 
+/// A planner warmed up for the map (as the node starts it) plans what a cold one does,
+/// paths and counters alike (but for `map_rebuilt`: the warm-up built the tables).
+#[test]
+fn warm_up_changes_no_result() {
+    for cpm in [10.0, 20.0] {
+        let map = seed_map::seed_map(cpm);
+        let view = map.view();
+        let mut cold = Planner::new(PlannerConfig::default()).unwrap();
+        let mut warm = Planner::new(PlannerConfig::default()).unwrap();
+        warm.warm_up(&view);
+        for seg in seed_map::seed_segments() {
+            let req = request(&seg);
+            let mut c = cold.plan(&req, &view).unwrap();
+            let w = warm.plan(&req, &view).unwrap();
+            assert!(!w.stats.map_rebuilt);
+            c.stats.map_rebuilt = false;
+            assert_eq!(c, w, "{}", seg.name);
+        }
+    }
+}
+
 #[test]
 fn same_request_gives_the_same_path_bit_for_bit() {
     let map = seed_map::seed_map(10.0);
