@@ -266,7 +266,10 @@ mod tests {
         load::<MapConfig>(&path).unwrap();
         std::fs::write(&path, "size = [110.0, 100.0]\n").unwrap();
         let e = load::<MapConfig>(&path).unwrap_err().to_string();
-        assert!(e.contains("key `size`") && e.contains("1048576 cells"), "{e}");
+        assert!(
+            e.contains("key `size`") && e.contains("1048576 cells"),
+            "{e}"
+        );
         std::fs::write(&path, "cell_per_metre = 10.0\n").unwrap();
         let e = load::<MapConfig>(&path).unwrap_err().to_string();
         assert!(e.contains("mapper.toml:1:"), "{e}");

@@ -134,6 +134,12 @@ fn scene_of(file: &RecordFile) -> Option<aisle_config::scene::Scene> {
         })
 }
 
+/// The kinds of the scene's bodies by name.
+fn kinds_of(scene: &aisle_config::scene::Scene) -> Vec<(String, String)> {
+    let kind = |b: &aisle_config::scene::Body| (b.name.clone(), b.kind.clone());
+    scene.bodies.iter().map(kind).collect()
+}
+
 /// The static bodies of the scene (ground truth lists only those in contact).
 fn static_boxes(scene: &aisle_config::scene::Scene) -> Vec<StaticBox> {
     scene
@@ -163,15 +169,7 @@ fn kind_of(name: &str, kinds: &[(String, String)], carried: bool) -> BodyKind {
 /// Reads `file` into a [`Run`].
 pub fn collect(file: &RecordFile, opts: &RenderOptions) -> Run {
     let scene = scene_of(file);
-    let kinds: Vec<(String, String)> = scene
-        .iter()
-        .flat_map(|scene| {
-            scene
-                .bodies
-                .iter()
-                .map(|b| (b.name.clone(), b.kind.clone()))
-        })
-        .collect();
+    let kinds = scene.as_ref().map(kinds_of).unwrap_or_default();
     let mut run = Run {
         seed: file.run_metadata().get("seed").cloned(),
         statics: scene.as_ref().map(static_boxes).unwrap_or_default(),
