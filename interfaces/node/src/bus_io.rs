@@ -18,6 +18,15 @@ use std::time::Duration;
 /// How long one sleep of a wait lasts at most, so heartbeats keep going.
 const SLICE: Duration = Duration::from_millis(25);
 
+struct InPort {
+    topic: &'static str,
+    port: Box<dyn Any>,
+    /// `update_connections` of the typed subscriber, run between the sleeps of every
+    /// wait: connecting to a publisher maps its data segment, which must not happen
+    /// inside the first cycle that receives from it (it took 4-15 ms there).
+    connect: fn(&dyn Any),
+}
+
 struct OutPort {
     topic: &'static str,
     port: Box<dyn Any>,
@@ -28,10 +37,7 @@ struct OutPort {
 pub struct BusIo<'b> {
     bus: &'b Bus,
     node: String,
-    /// Each subscriber with its typed `update_connections`, run between the sleeps of
-    /// every wait: connecting to a publisher maps its data segment, which must not
-    /// happen inside the first cycle that receives from it (it took 4-15 ms there).
-    inputs: Vec<(&'static str, Box<dyn Any>, fn(&dyn Any))>,
+    inputs: Vec<InPort>,
     outputs: Vec<OutPort>,
     heartbeat: RefCell<HeartbeatSender>,
     /// What the heartbeats of waits say: `Starting` until the stage is ready.
@@ -68,10 +74,11 @@ impl TopicVisitor for Opener<'_, '_> {
         let listed = |l: &[String]| l.iter().any(|t| t == topic.name);
         if listed(&self.decl.subscribes) {
             match self.bus.subscriber(topic) {
-                Ok(s) => self
-                    .io
-                    .inputs
-                    .push((topic.name, Box::new(s), connect_port::<T>)),
+                Ok(s) => self.io.inputs.push(InPort {
+                    topic: topic.name,
+                    port: Box::new(s),
+                    connect: connect_port::<T>,
+                }),
                 Err(e) => self.error = Some(e.into()),
             }
         }
@@ -133,8 +140,8 @@ impl<'b> BusIo<'b> {
     fn input<T: Message>(&self, topic: Topic<T>) -> Result<&Subscriber<T>, NodeError> {
         self.inputs
             .iter()
-            .find(|(name, _, _)| *name == topic.name)
-            .and_then(|(_, p, _)| p.downcast_ref::<Subscriber<T>>())
+            .find(|i| i.topic == topic.name)
+            .and_then(|i| i.port.downcast_ref::<Subscriber<T>>())
             .ok_or_else(|| self.undeclared(topic.name, "subscribes"))
     }
 
@@ -152,8 +159,8 @@ impl<'b> BusIo<'b> {
         if let Ok(mut hb) = self.heartbeat.try_borrow_mut() {
             let _ = hb.tick(self.state.get());
         }
-        for (_, port, connect) in &self.inputs {
-            connect(port.as_ref());
+        for i in &self.inputs {
+            (i.connect)(i.port.as_ref());
         }
         for o in &self.outputs {
             (o.refresh)(o.port.as_ref());
