@@ -5,19 +5,13 @@
 
 mod support;
 
-use support::{TestDir, config_dir, run_report};
+use support::{TestDir, config_dir, config_with_graph, run_report};
 
 #[test]
 fn a_warehouse_four_times_the_seed_area_carries_its_rack_without_a_collision() {
     let dir = TestDir::new("growth-x4");
-    let config = dir.path("config");
-    std::fs::create_dir_all(&config).unwrap();
-    for entry in std::fs::read_dir(config_dir()).unwrap() {
-        let path = entry.unwrap().path();
-        if path.is_file() {
-            std::fs::copy(&path, config.join(path.file_name().unwrap())).unwrap();
-        }
-    }
+    // The shipped config (its graph as it is), then the growth files over it.
+    let config = config_with_graph(&dir, "");
     for entry in std::fs::read_dir(config_dir().join("growth/x4")).unwrap() {
         let path = entry.unwrap().path();
         std::fs::copy(&path, config.join(path.file_name().unwrap())).unwrap();
