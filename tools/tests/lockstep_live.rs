@@ -194,6 +194,61 @@ fn lockstep_replay_paces_by_acknowledgements_and_compares_outputs() {
     drop((ports, announce, bus));
 }
 
+/// The synthetic run with the mapper's part of its last tick cut off, as when the
+/// group stops while the mapper still works on the tick after the mission's last.
+fn write_cut_short(path: &Path) {
+    let mut w = RecordWriter::new(File::create(path).unwrap(), WriterOptions::default()).unwrap();
+    for sample in aisle_tools::synthetic::synthetic_run(TICKS) {
+        let bytes = sample.bytes.bytes();
+        let last = header_fields(bytes).tick == TICKS - 1;
+        let mapper_ack = sample
+            .bytes
+            .view::<aisle_messages::TickDone>()
+            .is_some_and(|d| sample.service == s::TICK_DONE && d.node == NodeKind::Mapper.code());
+        let map = sample.service == s::LOCAL_MAP || sample.service == s::GLOBAL_MAP;
+        if last && (mapper_ack || map) {
+            continue;
+        }
+        w.write_raw(sample.service, sample.log_time, bytes).unwrap();
+    }
+    w.finish().unwrap();
+}
+
+#[test]
+fn a_consumer_cut_off_in_the_last_tick_is_not_compared_there() {
+    let path = std::env::temp_dir().join(format!("aisle-cut-{}.mcap", std::process::id()));
+    write_cut_short(&path);
+    let file = RecordFile::open(&path).unwrap();
+    // The stand-in answers the last tick with the maps of the full synthetic run.
+    let full = std::env::temp_dir().join(format!("aisle-full-{}.mcap", std::process::id()));
+    write_synthetic(
+        File::create(&full).unwrap(),
+        TICKS,
+        WriterOptions::default(),
+    )
+    .unwrap();
+    let maps = recorded_maps(&RecordFile::open(&full).unwrap());
+    let instance = Instance::unique(Path::new("/tmp/aisle-tt"));
+    let _cleanup = Cleanup(instance.clone(), vec![path.clone(), full]);
+    let (bus, announce) = Bus::create_instance(&instance, 7, TickMode::Lockstep).unwrap();
+    let opts = options(&path);
+    let mut ports = LockstepPorts::open(&bus, &file, &opts).unwrap();
+    let (tx, rx) = mpsc::channel();
+    let mapper = stand_in(instance.clone(), maps, None, TICKS, tx);
+    while rx.try_recv().is_err() {
+        announce.update_connections().unwrap();
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    let summary = replay_lockstep(&mut ports, &file, &opts, &mut || Ok(())).unwrap();
+    // The live mapper's last maps may or may not have arrived when the replay looked:
+    // either way that tick is not compared, and the ticks before it are.
+    mapper.join().unwrap();
+    assert!(summary.identical(), "{summary:?}");
+    assert_eq!(summary.cut_short, vec![NodeKind::Mapper]);
+    assert_eq!(summary.compared.get(s::LOCAL_MAP), Some(&(TICKS - 1)));
+    drop((ports, announce, bus));
+}
+
 #[test]
 fn a_realtime_recording_is_refused_for_lockstep() {
     let path = std::env::temp_dir().join(format!("aisle-realtime-{}.mcap", std::process::id()));

@@ -274,6 +274,12 @@ fn replay_check(a: &ReplayRequest) -> ExitCode {
         let bad = summary.diverged.get(service).copied().unwrap_or(0);
         println!("  {service:<28} {n:>5} compared  {bad:>5} differ");
     }
+    for node in &summary.cut_short {
+        println!(
+            "  not compared: {}'s outputs of the last tick (the recording ended before it acknowledged it)",
+            node.name()
+        );
+    }
     if let Some(d) = &summary.first {
         let total: u64 = summary.diverged.values().sum();
         println!("DIVERGED: {total} samples differ; first: {d}");
