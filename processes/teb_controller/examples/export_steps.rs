@@ -163,17 +163,31 @@ fn run() -> Result<(), String> {
 
 fn evaluate(cfg: &TebConfig, steps: &[StepMessages]) -> Result<(), String> {
     let (mut times, mut ratios, mut subproblems) = (Vec::new(), Vec::new(), 0);
+    let mut rows = Vec::new();
     for s in steps {
         let aligned = AlignedStep::of(s);
         let inputs = aligned.inputs()?;
         let mut step = RecordedStep::new(cfg.clone(), &inputs)?;
         let start = Instant::now();
         let out = step.step().map_err(|e| e.to_string())?;
-        times.push(start.elapsed().as_nanos() as u64);
+        let ns = start.elapsed().as_nanos() as u64;
+        times.push(ns);
         subproblems += out.iterations;
+        let mut ratio = f64::NAN;
         if out.iterations > 0 {
-            ratios.push(out.cost / converged_cost(cfg, &inputs)?);
+            ratio = out.cost / converged_cost(cfg, &inputs)?;
+            ratios.push(ratio);
         }
+        rows.push((ns, s.trajectory.publish_time, out.iterations, ratio));
+    }
+    rows.sort_by_key(|r| std::cmp::Reverse(r.0));
+    println!("the slowest steps:");
+    for (ns, t, iterations, ratio) in rows.iter().take(10) {
+        println!(
+            "  t {:7.1} s  {:6.2} ms  {iterations:2} subproblems  cost / converged {ratio:.4}",
+            *t as f64 * 1e-9,
+            *ns as f64 * 1e-6
+        );
     }
     // The project's one quantile (nearest rank), on ns and on ratios in millionths.
     times.sort_unstable();
