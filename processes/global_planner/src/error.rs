@@ -72,6 +72,10 @@ pub enum PlanErrorKind {
     Stopped,
     #[error("internal error: the found path failed its final validation")]
     ValidationFailed,
+    /// A search bounded by the cost of a plan already in hand (a docking side that
+    /// cannot beat one searched before it) has no node left below that cost.
+    #[error("no path cheaper than the bound the search was given")]
+    AboveBound,
     /// Docking: no side of the body has a clear straight way in (or out).
     #[error("no side of the body has a clear straight way in or out")]
     NoOpenSide,

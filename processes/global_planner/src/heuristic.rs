@@ -147,6 +147,12 @@ impl GridHeuristic {
         self.touched.reserve(n);
     }
 
+    /// The most by which [`GridHeuristic::metres`] may exceed a real path's length: it
+    /// measures between cell centres, and each end may lie half a diagonal away.
+    pub fn quantisation(&self) -> f64 {
+        self.cell * std::f64::consts::SQRT_2
+    }
+
     /// Whether its blocked cells are for a body of inscribed radius `r_in`.
     pub fn serves(&self, r_in: f64) -> bool {
         self.key.is_some_and(|k| k.1 == r_in.to_bits())

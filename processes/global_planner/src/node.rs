@@ -43,7 +43,10 @@ fn status_of(kind: &PlanErrorKind) -> PlanStatus {
         PlanErrorKind::GoalOccupied => PlanStatus::GoalOccupied,
         PlanErrorKind::StartOutsideMap => PlanStatus::StartOutsideMap,
         PlanErrorKind::GoalOutsideMap => PlanStatus::GoalOutsideMap,
-        PlanErrorKind::NoPath | PlanErrorKind::ValidationFailed => PlanStatus::NoPath,
+        // `AboveBound` stays inside a docked plan (a side that lost); listed for totality.
+        PlanErrorKind::NoPath | PlanErrorKind::ValidationFailed | PlanErrorKind::AboveBound => {
+            PlanStatus::NoPath
+        }
         PlanErrorKind::BudgetExhausted | PlanErrorKind::Stopped => PlanStatus::Timeout,
         PlanErrorKind::NoOpenSide => PlanStatus::NoOpenSide,
     }

@@ -119,6 +119,16 @@ impl Planner {
         }
     }
 
+    /// The cheapest obstacle-free connection from `from` to `to` under the search's cost
+    /// model: a lower bound of any plan between them.
+    pub(crate) fn free_space_cost(&mut self, from: &Pose2, to: &Pose2) -> f64 {
+        let wrapped = |p: &Pose2| Pose2::new(p.x, p.y, wrap_angle(p.theta));
+        // The candidates buffer no longer holds the ones a search cached.
+        self.buf.rs_from = None;
+        self.model
+            .free_space_cost(&wrapped(from), &wrapped(to), &mut self.buf.rs)
+    }
+
     /// Plans with the expansion budget as the only bound.
     pub fn plan(&mut self, req: &PlanRequest, map: &GridView) -> Result<Plan, PlanError> {
         self.plan_with_stop(req, map, &mut || false)
@@ -132,8 +142,20 @@ impl Planner {
         map: &GridView,
         should_stop: &mut dyn FnMut() -> bool,
     ) -> Result<Plan, PlanError> {
+        self.plan_below(req, map, f64::INFINITY, should_stop)
+    }
+
+    /// Like [`Planner::plan_with_stop`], with a search cost the path must stay below:
+    /// [`PlanErrorKind::AboveBound`] as soon as no cheaper path can be left.
+    pub(crate) fn plan_below(
+        &mut self,
+        req: &PlanRequest,
+        map: &GridView,
+        bound: f64,
+        should_stop: &mut dyn FnMut() -> bool,
+    ) -> Result<Plan, PlanError> {
         let mut stats = PlanStats::default();
-        match self.plan_phases(req, map, should_stop, &mut stats) {
+        match self.plan_phases(req, map, bound, should_stop, &mut stats) {
             Ok(path) => Ok(Plan { path, stats }),
             Err(kind) => Err(PlanError { kind, stats }),
         }
@@ -145,6 +167,7 @@ impl Planner {
         &mut self,
         req: &PlanRequest,
         map: &GridView,
+        bound: f64,
         should_stop: &mut dyn FnMut() -> bool,
         stats: &mut PlanStats,
     ) -> Result<Vec<PathPose>, PlanErrorKind> {
@@ -208,6 +231,7 @@ impl Planner {
 
         let per_cell = cfg.expansions_per_reachable_cell;
         let budget = Budget::new(req.max_expansions, per_cell, eager.then_some(heur.settled));
+        let bound = bound + heur.quantisation() * model.min_cost_per_metre;
         let mut search = Search {
             cfg,
             model,
@@ -217,6 +241,7 @@ impl Planner {
             budget,
             checker,
             goal,
+            bound,
             buf: &mut self.buf,
             stats: &mut *stats,
         };

@@ -25,6 +25,10 @@ pub(crate) struct Node {
     pub(crate) pose: Pose2,
     pub(crate) g: f64,
     pub(crate) h: f64,
+    /// The obstacle-aware part of `h` (the 2D grid distance, in cost): unlike the
+    /// free-space part, a lower bound of any path's cost to the goal (up to the grid's
+    /// quantisation), so the one a cost bound is tested with.
+    pub(crate) h_grid: f64,
     pub(crate) parent: u32,
     pub(crate) state: u32,
     pub(crate) prim: u8,
@@ -68,6 +72,9 @@ pub(crate) struct Buffers {
     pub(crate) nodes: Vec<Node>,
     pub(crate) state_node: StateTable,
     pub(crate) open: BinaryHeap<OpenEntry>,
+    /// Under a cost bound: the open nodes whose heuristic the free-space part raised,
+    /// by `g + h_grid` (`Search::above_bound`).
+    pub(crate) raised: BinaryHeap<OpenEntry>,
     pub(crate) rs: Candidates,
     /// The pose (bits) `rs` holds the candidates from, to this request's goal: a node's
     /// analytic expansion usually follows its free-space heuristic, which solved them.
@@ -121,6 +128,9 @@ pub(crate) struct Search<'a> {
     pub(crate) budget: Budget,
     pub(crate) checker: Clearance<'a>,
     pub(crate) goal: Pose2,
+    /// No path matters whose cost exceeds this: the search ends once every open node's
+    /// `g + h_grid` does (infinite: no bound; `search.rs` adds the grid's quantisation).
+    pub(crate) bound: f64,
     pub(crate) buf: &'a mut Buffers,
     pub(crate) stats: &'a mut PlanStats,
 }
@@ -133,6 +143,7 @@ impl Search<'_> {
             pose: start,
             g: 0.0,
             h: h_start * self.model.min_cost_per_metre,
+            h_grid: h_start * self.model.min_cost_per_metre,
             parent: NONE,
             state: self
                 .grid
@@ -155,6 +166,9 @@ impl Search<'_> {
         let mut since_shot = 0u32;
         loop {
             let ni = self.next_node().ok_or(PlanErrorKind::NoPath)?;
+            if self.above_bound(ni) {
+                return Err(PlanErrorKind::AboveBound);
+            }
             self.close(ni, should_stop)?;
             let node = self.buf.nodes[ni];
             if self.shot_due(&node, &mut since_shot)
@@ -193,11 +207,41 @@ impl Search<'_> {
                         g: n.g,
                         node: entry.node,
                     });
+                    if self.bound < f64::INFINITY {
+                        self.buf.raised.push(OpenEntry {
+                            f: n.g + n.h_grid,
+                            g: n.g,
+                            node: entry.node,
+                        });
+                    }
                     continue;
                 }
             }
             return Some(ni);
         }
+    }
+
+    /// Whether no open node can lead to a path within the bound. Every path still to be
+    /// found passes an open node and costs at least its `g + h_grid`. Nodes whose `h` is
+    /// still the grid part come off the open list in that order, so the popped one
+    /// stands for them; those raised by the free-space part (which, with turns on the
+    /// spot, is no lower bound) are kept apart by `g + h_grid` in `raised`.
+    #[inline]
+    fn above_bound(&mut self, ni: usize) -> bool {
+        let n = &self.buf.nodes[ni];
+        if n.g + n.h_grid <= self.bound {
+            return false;
+        }
+        let nodes = &self.buf.nodes;
+        while let Some(e) = self.buf.raised.peek() {
+            let o = &nodes[e.node as usize];
+            if o.closed || o.g.to_bits() != e.g.to_bits() {
+                self.buf.raised.pop();
+                continue;
+            }
+            return e.f > self.bound;
+        }
+        true
     }
 
     /// Counts the expansion of node `ni` and closes it, unless the budget is spent or
@@ -318,6 +362,7 @@ impl Search<'_> {
                 pose,
                 g,
                 h: h2d * model.min_cost_per_metre,
+                h_grid: h2d * model.min_cost_per_metre,
                 parent: ni as u32,
                 state,
                 prim: pi as u8,
@@ -369,6 +414,7 @@ impl Buffers {
         self.state_node.reset(grid);
         self.nodes.clear();
         self.open.clear();
+        self.raised.clear();
         self.rs_from = None;
     }
 
@@ -382,6 +428,7 @@ impl Buffers {
             pose: Pose2::default(),
             g: 0.0,
             h: 0.0,
+            h_grid: 0.0,
             parent: NONE,
             state: 0,
             prim: 0,
