@@ -34,6 +34,7 @@
 
 mod angle;
 mod blocked;
+mod budget;
 mod collision;
 pub mod config;
 mod dist_tiles;

@@ -22,6 +22,7 @@
 //! Reads no clock: the request carries an expansion budget, and the caller may pass a
 //! stop callback (for a wall deadline) that is asked every few hundred expansions.
 
+use crate::budget::Budget;
 use crate::config::PlannerConfig;
 use crate::distance_map::{DistanceMap, EAGER_CELLS};
 use crate::error::{InvalidInput, PlanError, PlanErrorKind, PlanStats};
@@ -29,7 +30,7 @@ use crate::heuristic::GridHeuristic;
 use crate::model::Model;
 use crate::motion::Motion;
 use crate::relief::{self, Clearance};
-use crate::search_core::{Budget, Buffers, Search};
+use crate::search_core::{Buffers, Search};
 use crate::smooth::{SmoothParams, smooth_path};
 use crate::states::SearchGrid;
 use aisle_config::{InvalidKey, Validate};
