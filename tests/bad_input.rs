@@ -265,17 +265,17 @@ fn a_mission_that_is_a_device_or_a_fifo_is_refused_at_once() {
 }
 
 #[test]
-fn a_config_file_over_one_mebibyte_is_refused_naming_it() {
+fn a_config_file_over_sixteen_mebibytes_is_refused_naming_it() {
     let dir = TestDir::new("big-config");
     let cfg = config_with(&dir, "cfg", "budgets.toml", "[", "\n[");
     let budgets = cfg.join("budgets.toml");
     let mut text = std::fs::read_to_string(&budgets).unwrap();
-    text.push_str(&"# padding\n".repeat(110_000));
+    text.push_str(&"# padding\n".repeat(1_700_000));
     std::fs::write(&budgets, text).unwrap();
     let (code, err) = run_refused(&dir, &["check", "--config-dir", s(&cfg)]);
     assert_eq!(code, Some(1), "{err}");
     assert!(
-        err.contains("budgets.toml") && err.contains("larger than 1024 KiB"),
+        err.contains("budgets.toml") && err.contains("larger than 16384 KiB"),
         "{err}"
     );
     let (code, err) = run_refused(&dir, &["run", "--config-dir", s(&cfg)]);

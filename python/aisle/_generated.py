@@ -7,16 +7,16 @@ import ctypes
 import enum
 from typing import NamedTuple
 
-SCHEMA_HASH = 0xcf650ec1e502c39e
-SCHEMA_HASH_HEX = "cf650ec1e502c39e"
+SCHEMA_HASH = 0x67368f4bb3c6ab01
+SCHEMA_HASH_HEX = "67368f4bb3c6ab01"
 
 # Capacities and flag bits.
 STAGE_CONTROLLER = 1
 MAX_CLOUD_ROWS = 64
 MAX_CLOUD_COLS = 2048
 MAX_CLOUD_POINTS = 131072
-MAX_GRID_SIDE = 1024
-MAX_GRID_CELLS = 1048576
+MAX_GRID_SIDE = 4096
+MAX_GRID_CELLS = 2097152
 MAX_DOCK_PARTS = 8
 MAX_PLACED_PARTS = 32
 MAX_PATH_POSES = 4096
@@ -332,9 +332,9 @@ class PointCloud(ctypes.Structure):
 
 
 class OccupancyGrid(ctypes.Structure):
-    """`aisle.OccupancyGrid.v1`: 1048672 bytes, align 8."""
+    """`aisle.OccupancyGrid.v2`: 2097248 bytes, align 8."""
 
-    TYPE_NAME = "aisle.OccupancyGrid.v1"
+    TYPE_NAME = "aisle.OccupancyGrid.v2"
     _fields_ = [
         ("header", Header),
         ("kind", ctypes.c_uint32),
@@ -345,7 +345,7 @@ class OccupancyGrid(ctypes.Structure):
         ("origin_y", ctypes.c_double),
         ("resolution", ctypes.c_double),
         ("version", ctypes.c_uint64),
-        ("cells", ctypes.c_uint8 * 1048576),
+        ("cells", ctypes.c_uint8 * 2097152),
     ]
 
     @classmethod
@@ -648,7 +648,7 @@ LAYOUTS = {
     RobotState: (128, 8, (("header", 0, 48), ("pose", 48, 24), ("twist", 72, 16), ("wheel_speeds", 88, 16), ("carried_body", 104, 4), ("watchdog_stopped", 108, 4), ("collisions", 112, 4), ("_pad", 116, 4), ("active_goal_id", 120, 8), )),
     WorldTruth: (22592, 8, (("header", 0, 48), ("len", 48, 4), ("collisions", 52, 4), ("min_clearance", 56, 8), ("bodies", 64, 22528), )),
     PointCloud: (1573000, 8, (("header", 0, 48), ("rows", 48, 4), ("cols", 52, 4), ("sensor_pose", 56, 48), ("robot_pose", 104, 24), ("carried_body", 128, 4), ("_pad", 132, 4), ("points", 136, 1572864), )),
-    OccupancyGrid: (1048672, 8, (("header", 0, 48), ("kind", 48, 4), ("width", 52, 4), ("height", 56, 4), ("_pad", 60, 4), ("origin_x", 64, 8), ("origin_y", 72, 8), ("resolution", 80, 8), ("version", 88, 8), ("cells", 96, 1048576), )),
+    OccupancyGrid: (2097248, 8, (("header", 0, 48), ("kind", 48, 4), ("width", 52, 4), ("height", 56, 4), ("_pad", 60, 4), ("origin_x", 64, 8), ("origin_y", 72, 8), ("resolution", 80, 8), ("version", 88, 8), ("cells", 96, 2097152), )),
     MapperControl: (1688, 8, (("header", 0, 48), ("ignore", 48, 48), ("carried", 96, 48), ("placed_count", 144, 4), ("_pad", 148, 4), ("placed", 152, 1536), )),
     PlanRequest: (584, 8, (("header", 0, 48), ("request_id", 48, 8), ("start", 56, 24), ("goal", 80, 24), ("footprint_length", 104, 8), ("footprint_width", 112, 8), ("margin", 120, 8), ("use_detections", 128, 4), ("max_expansions", 132, 4), ("timeout_ms", 136, 4), ("dock", 140, 4), ("free_heading", 144, 4), ("_pad", 148, 4), ("body", 152, 48), ("parts", 200, 384), )),
     PlanResponse: (131168, 8, (("header", 0, 48), ("request_id", 48, 8), ("status", 56, 4), ("expansions", 60, 4), ("solve_ns", 64, 8), ("path_length", 72, 8), ("len", 80, 4), ("straight", 84, 4), ("split", 88, 4), ("_pad", 92, 4), ("poses", 96, 131072), )),

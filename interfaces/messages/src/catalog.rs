@@ -12,10 +12,10 @@ use crate::message;
 pub const MAX_CLOUD_ROWS: usize = 64;
 pub const MAX_CLOUD_COLS: usize = 2048;
 pub const MAX_CLOUD_POINTS: usize = MAX_CLOUD_ROWS * MAX_CLOUD_COLS;
-/// Occupancy grids up to 1024 x 1024 cells, in any shape (`width * height` at most
-/// `MAX_GRID_CELLS`).
-pub const MAX_GRID_SIDE: usize = 1024;
-pub const MAX_GRID_CELLS: usize = MAX_GRID_SIDE * MAX_GRID_SIDE;
+/// Occupancy grids of up to 2^21 cells (2 MiB) in any shape, no side longer than
+/// `MAX_GRID_SIDE`: a 100 x 200 m warehouse at 10 cells/m is 1000 x 2000.
+pub const MAX_GRID_SIDE: usize = 4096;
+pub const MAX_GRID_CELLS: usize = 1 << 21;
 /// Parts of a docking body a plan request can name (a rack's four legs, and more).
 pub const MAX_DOCK_PARTS: usize = 8;
 /// Parts of bodies set down by the mission the mapper keeps as known obstacles (four
@@ -185,7 +185,7 @@ message!(
 
 message!(
     /// An occupancy grid: row-major from the origin corner, 0 free, 1 static, 2 detected.
-    OccupancyGrid = "aisle.OccupancyGrid.v1" size 1048672 {
+    OccupancyGrid = "aisle.OccupancyGrid.v2" size 2097248 {
         header: Header,
         /// `GridKind` code.
         kind: u32,

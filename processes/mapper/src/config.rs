@@ -12,14 +12,15 @@ use aisle_config::{InvalidKey, Validate};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
-/// Cells per metre above this would make a 20 x 30 m map exceed the 2^20 cells a grid
+/// Cells per metre above this would make a 20 x 30 m map exceed the 2^21 cells a grid
 /// message holds; far finer than a lidar at 12 m can resolve anyway.
 const MAX_CELLS_PER_METRE: f64 = 50.0;
 
-/// Most cells a grid may have, the capacity of the grid message (1024 x 1024 cells, in
-/// any shape: a long warehouse may be 850 x 1200); kept here so the algorithm does not
-/// depend on the message crate. The node adapter asserts the two agree.
-pub const MAX_GRID_CELLS: usize = 1 << 20;
+/// Most cells a grid may have, the capacity of the grid message (2^21 cells in any
+/// shape: a 100 x 200 m warehouse at 10 cells/m is 1000 x 2000); kept here so the
+/// algorithm does not depend on the message crate. The node adapter asserts the two
+/// agree.
+pub const MAX_GRID_CELLS: usize = 1 << 21;
 /// Longest grid side, in cells (a grid is at most `MAX_GRID_CELLS` in all).
 pub const MAX_GRID_SIDE: usize = 4096;
 
@@ -261,15 +262,19 @@ mod tests {
         let e = load::<MapConfig>(&path).unwrap_err().to_string();
         assert!(e.contains("obstacles.clear_radius"), "{e}");
         assert!(e.contains("half a cell"), "{e}");
-        // Any shape up to the cells a grid message holds: 86 x 120 m fits, 110 x 100 m not.
-        std::fs::write(&path, "size = [86.0, 120.0]\n").unwrap();
+        // Any shape up to the cells a grid message holds: 100 x 200 m fits, 150 x 150 m
+        // not, nor a side over 4096 cells.
+        std::fs::write(&path, "size = [100.0, 200.0]\n").unwrap();
         load::<MapConfig>(&path).unwrap();
-        std::fs::write(&path, "size = [110.0, 100.0]\n").unwrap();
+        std::fs::write(&path, "size = [150.0, 150.0]\n").unwrap();
         let e = load::<MapConfig>(&path).unwrap_err().to_string();
         assert!(
-            e.contains("key `size`") && e.contains("1048576 cells"),
+            e.contains("key `size`") && e.contains("2097152 cells"),
             "{e}"
         );
+        std::fs::write(&path, "size = [420.0, 10.0]\n").unwrap();
+        let e = load::<MapConfig>(&path).unwrap_err().to_string();
+        assert!(e.contains("key `size`") && e.contains("4096"), "{e}");
         std::fs::write(&path, "cell_per_metre = 10.0\n").unwrap();
         let e = load::<MapConfig>(&path).unwrap_err().to_string();
         assert!(e.contains("mapper.toml:1:"), "{e}");

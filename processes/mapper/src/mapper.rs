@@ -457,9 +457,9 @@ mod tests {
         assert!(e.to_string().contains("cells_per_metre"), "{e}");
         // A user's ROS map too large for a grid message: more cells than it holds, or a
         // side longer than any grid's; a long narrow one that fits is fine.
-        let huge = GridMap::new_free(0.0, 0.0, 0.1, 110.0, 100.0).unwrap();
+        let huge = GridMap::new_free(0.0, 0.0, 0.1, 150.0, 150.0).unwrap();
         let e = Mapper::new(huge, &cfg, BeamGeometry::default()).unwrap_err();
-        assert!(matches!(e, MapError::TooMany { got: 1_100_000, .. }), "{e}");
+        assert!(matches!(e, MapError::TooMany { got: 2_250_000, .. }), "{e}");
         let long = GridMap::new_free(0.0, 0.0, 0.1, 409.7, 2.0).unwrap();
         let e = Mapper::new(long, &cfg, BeamGeometry::default()).unwrap_err();
         assert!(matches!(e, MapError::TooMany { got: 4097, .. }), "{e}");

@@ -83,6 +83,7 @@ impl MapperStage {
                 NodeError::setup(format!("mapper: static map ({})", mapper_toml.display()), e)
             })?;
         const _: () = assert!(crate::config::MAX_GRID_CELLS == aisle_messages::MAX_GRID_CELLS);
+        const _: () = assert!(crate::config::MAX_GRID_SIDE == aisle_messages::MAX_GRID_SIDE);
         if static_map.cells.len() > aisle_messages::MAX_GRID_CELLS {
             return Err(NodeError::setup(
                 format!("mapper: {}", mapper_toml.display()),
