@@ -75,6 +75,12 @@ pub struct PlannerConfig {
     /// motions leaving from within this distance (m) of it keep at least the clearance
     /// the start has, every other motion the full margin (`relief.rs`). 0: none.
     pub start_relief_radius: f64,
+    /// Weighted A*: the search orders nodes by `g + heuristic_weight * h`, so a path
+    /// costs at most this factor over the best the search could find, and far fewer
+    /// nodes are expanded where many paths cost nearly the same (the open floor of a
+    /// large hall, where the plain search expands every heading of every cell whose
+    /// detour fits in the final path's slack). 1: plain A*.
+    pub heuristic_weight: f64,
 }
 
 impl Default for PlannerConfig {
@@ -106,6 +112,7 @@ impl Default for PlannerConfig {
             dock_run_in: 0.5,
             dock_clearance: 0.03,
             start_relief_radius: 0.5,
+            heuristic_weight: 1.0,
         }
     }
 }
@@ -174,6 +181,7 @@ impl Validate for PlannerConfig {
         positive("dock_run_in", self.dock_run_in)?;
         at_least("dock_clearance", self.dock_clearance, 0.0)?;
         at_least("start_relief_radius", self.start_relief_radius, 0.0)?;
+        in_range("heuristic_weight", self.heuristic_weight, 1.0, 5.0)?;
         Ok(())
     }
 }

@@ -112,7 +112,7 @@ impl Search<'_> {
         self.buf.push_node(Node {
             pose: start,
             g: 0.0,
-            h: h_start * self.model.min_cost_per_metre,
+            h: self.cfg.heuristic_weight * h_start * self.model.min_cost_per_metre,
             h_grid: h_start * self.model.min_cost_per_metre,
             parent: NONE,
             state: self
@@ -164,9 +164,10 @@ impl Search<'_> {
                 continue;
             }
             if !node.h_full {
-                let h_free = self
-                    .model
-                    .free_space_cost(&node.pose, &self.goal, &mut self.buf.rs);
+                let h_free = self.cfg.heuristic_weight
+                    * self
+                        .model
+                        .free_space_cost(&node.pose, &self.goal, &mut self.buf.rs);
                 self.buf.rs_from = Some(pose_bits(&node.pose));
                 let n = &mut self.buf.nodes[ni];
                 n.h_full = true;
@@ -259,7 +260,7 @@ impl Search<'_> {
         // Far from the goal a shot almost always fails after a long collision check,
         // so shots are spaced by the remaining cost as well (Nav2 does the same).
         *since_shot += 1;
-        let remaining = node.h / self.model.min_cost_per_metre;
+        let remaining = node.h / (self.cfg.heuristic_weight * self.model.min_cost_per_metre);
         let interval = (self.cfg.analytic_interval_per_metre * remaining)
             .min(f64::from(u32::MAX))
             .max(f64::from(self.cfg.analytic_expansion_interval)) as u32;
@@ -331,7 +332,7 @@ impl Search<'_> {
             let child = Node {
                 pose,
                 g,
-                h: h2d * model.min_cost_per_metre,
+                h: self.cfg.heuristic_weight * h2d * model.min_cost_per_metre,
                 h_grid: h2d * model.min_cost_per_metre,
                 parent: ni as u32,
                 state,
