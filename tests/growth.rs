@@ -6,21 +6,12 @@
 //! - `config/large` (99.2 x 199.4 m, 9,972 bodies, a 1000 x 2000 cell map, two picks and
 //!   drops over 550 m): the grid message holds 2^21 cells (it held 2^20 before, and the
 //!   config reader refused a scene over 1 MiB).
+//!
+//! Both run as a user runs them, `--config-dir` naming the overlay directory itself.
 
 mod support;
 
-use std::path::Path;
-use support::{TestDir, config_dir, config_with_graph, run_report};
-
-/// Lays the TOML files of `config/<folder>` over the config in `config`.
-fn overlay(config: &Path, folder: &str) {
-    for entry in std::fs::read_dir(config_dir().join(folder)).unwrap() {
-        let path = entry.unwrap().path();
-        if path.extension().is_some_and(|e| e == "toml") {
-            std::fs::copy(&path, config.join(path.file_name().unwrap())).unwrap();
-        }
-    }
-}
+use support::{config_dir, run_report};
 
 /// Where `body` stood at the end of the run.
 fn final_xy(report: &aisle_supervisor::report::RunReport, body: &str) -> (f64, f64) {
@@ -30,10 +21,8 @@ fn final_xy(report: &aisle_supervisor::report::RunReport, body: &str) -> (f64, f
 
 #[test]
 fn a_warehouse_four_times_the_seed_area_carries_its_rack_without_a_collision() {
-    let dir = TestDir::new("growth-x4");
-    // The shipped config (its graph as it is), then the growth files over it.
-    let config = config_with_graph(&dir, "");
-    overlay(&config, "growth/x4");
+    // The overlay as a user runs it: its `overlay.toml` lays it over `config/`.
+    let config = config_dir().join("growth/x4");
     let scene = aisle_config::scene::Scene::load(&config.join("warehouse.toml")).unwrap();
     assert!(scene.bodies.len() > 3 * aisle_messages::MAX_BODIES);
 
@@ -60,9 +49,7 @@ fn a_warehouse_four_times_the_seed_area_carries_its_rack_without_a_collision() {
 
 #[test]
 fn the_large_warehouse_mission_sets_both_racks_down_without_a_collision() {
-    let dir = TestDir::new("growth-large");
-    let config = config_with_graph(&dir, "");
-    overlay(&config, "large");
+    let config = config_dir().join("large");
     let (out, report) = run_report(
         "growth-large-run",
         &["--config-dir", config.to_str().unwrap()],

@@ -13,6 +13,7 @@ mod commands;
 mod config;
 mod install;
 mod logging;
+mod overlay;
 #[cfg(test)]
 mod tests;
 

@@ -3,8 +3,11 @@
 //! `build.rs`), written to a private temporary directory (0700) for the command's
 //! lifetime, since nodes, URDF, mission and graph are all read by path. So an installed
 //! binary needs no source tree, and the current directory never changes which config
-//! a command uses. Knows nothing of what the files mean.
+//! a command uses. A `--config-dir` that is an overlay (`overlay.rs`) is assembled in
+//! such a directory too: its base, then its own files. Knows nothing of what the files
+//! mean.
 
+use super::overlay::{self, Base};
 use anyhow::{Context, bail};
 use std::path::{Path, PathBuf};
 
@@ -29,23 +32,49 @@ impl ConfigDir {
     }
 }
 
-/// `explicit`, else the embedded config written to a fresh private directory.
+/// `explicit` (assembled in a fresh private directory when it is an overlay), else the
+/// embedded config written to one.
 pub fn resolve(explicit: Option<&Path>) -> anyhow::Result<ConfigDir> {
-    if let Some(p) = explicit {
-        return Ok(ConfigDir {
-            path: p.to_path_buf(),
-            _temp: None,
-        });
-    }
+    let base = match explicit {
+        None => Base::BuiltIn,
+        Some(p) => match overlay::base_of(p)? {
+            None => {
+                return Ok(ConfigDir {
+                    path: p.to_path_buf(),
+                    _temp: None,
+                });
+            }
+            Some(base) => base,
+        },
+    };
     // 0700 (created so, not changed after): other users cannot read or swap the files.
     use std::os::unix::fs::PermissionsExt;
     let temp = tempfile::Builder::new()
         .prefix("aisle-config-")
         .permissions(std::fs::Permissions::from_mode(0o700))
         .tempdir()
-        .context("creating a directory for the built-in config (is TMPDIR writable?)")?;
-    write_embedded(temp.path(), true)?;
-    tracing::debug!("built-in config in {}", temp.path().display());
+        .context("creating a directory for the config (is TMPDIR writable?)")?;
+    match &base {
+        Base::BuiltIn => {
+            write_embedded(temp.path(), true)?;
+        }
+        Base::Dir(dir) => {
+            overlay::copy_files(dir, temp.path())?;
+        }
+    }
+    if let Some(over) = explicit {
+        let n = overlay::copy_files(over, temp.path())?;
+        // Said on every command: an error about a config file names the assembled copy.
+        eprintln!(
+            "config: {} is an overlay: its {n} files over {}, assembled in {}",
+            over.display(),
+            match &base {
+                Base::BuiltIn => "the built-in config".to_string(),
+                Base::Dir(d) => d.display().to_string(),
+            },
+            temp.path().display()
+        );
+    }
     Ok(ConfigDir {
         path: temp.path().to_path_buf(),
         _temp: Some(temp),
@@ -130,6 +159,30 @@ mod tests {
         assert_eq!(mode & 0o777, 0o700);
         assert!(path.join("warehouse.toml").is_file());
         crate::check::check_dir(&path).unwrap();
+        drop(dir);
+        assert!(!path.exists());
+    }
+
+    /// `config/large` names `config/` as its base: the command sees the base's files
+    /// with the overlay's over them, in a private copy removed on drop.
+    #[test]
+    fn an_overlay_is_assembled_over_its_base() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config");
+        let over = root.join("large");
+        let dir = resolve(Some(&over)).unwrap();
+        let path = dir.path().to_path_buf();
+        assert_ne!(path, over);
+        let read = |p: &Path| std::fs::read(p).unwrap();
+        assert_eq!(
+            read(&path.join("mapper.toml")),
+            read(&over.join("mapper.toml"))
+        );
+        assert_eq!(read(&path.join("teb.toml")), read(&root.join("teb.toml")));
+        assert!(!path.join(super::overlay::OVERLAY_FILE).exists());
+        assert!(!path.join("large").exists() && !path.join("growth/x4").exists());
+        crate::check::check_dir(&path).unwrap();
+        // A whole config directory is used where it is.
+        assert_eq!(resolve(Some(&root)).unwrap().path(), root.as_path());
         drop(dir);
         assert!(!path.exists());
     }
