@@ -355,7 +355,7 @@ impl<'a> FootprintChecker<'a> {
     /// motion that starts at the same pose (bit for bit).
     #[inline]
     fn first_probe(&self, p: &Pose2) -> Probe {
-        let key = [p.x.to_bits(), p.y.to_bits(), p.theta.to_bits()];
+        let key = crate::motion::pose_bits(p);
         if let Some((k, probe)) = self.first.get()
             && k == key
         {

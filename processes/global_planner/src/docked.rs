@@ -136,20 +136,21 @@ impl Planner {
         should_stop: &mut dyn FnMut() -> bool,
         tally: &mut Tally,
     ) -> (Option<DockedPlan>, bool) {
-        let mut order: Vec<(f64, usize)> = Vec::with_capacity(open.len());
+        // (estimate, index in `open`, the move's own cost)
+        let mut order: Vec<(f64, usize, f64)> = Vec::with_capacity(open.len());
         for (i, mv) in open.iter().enumerate() {
             let free = match site.kind {
                 DockKind::Dock => self.free_space_cost(&req.start, &mv.from),
                 DockKind::Undock => self.free_space_cost(&mv.to, &req.goal),
             };
-            order.push((free + self.straight_cost(mv), i));
+            let straight = self.straight_cost(mv);
+            order.push((free + straight, i, straight));
         }
         order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let mut best: Option<(f64, usize, DockedPlan)> = None;
         let mut ends_blocked = true;
-        for (_, i) in order {
+        for (_, i, straight) in order {
             let mv = &open[i];
-            let straight = self.straight_cost(mv);
             let best_cost = best.as_ref().map_or(f64::INFINITY, |b| b.0);
             let leg = match site.kind {
                 DockKind::Dock => PlanRequest {

@@ -123,6 +123,12 @@ impl Motion {
     }
 }
 
+/// A pose's bits, to know a result computed from it again.
+#[inline]
+pub(crate) fn pose_bits(p: &Pose2) -> [u64; 3] {
+    [p.x.to_bits(), p.y.to_bits(), p.theta.to_bits()]
+}
+
 /// The pose after the fraction `s` of driving `length` at `curvature` from `from`, whose
 /// heading has the sine and cosine `(sn, cs)`.
 #[inline]

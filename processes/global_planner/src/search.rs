@@ -120,8 +120,10 @@ impl Planner {
         }
     }
 
-    /// The cheapest obstacle-free connection from `from` to `to` under the search's cost
-    /// model: a lower bound of any plan between them.
+    /// The search's free-space estimate from `from` to `to`: the cheapest Reeds-Shepp or
+    /// rotate-drive-rotate connection under its cost model, ignoring obstacles. Not a
+    /// lower bound when the robot may turn on the spot (a path mixing turns on the spot
+    /// with arcs can be cheaper): an estimate to order candidates by.
     pub(crate) fn free_space_cost(&mut self, from: &Pose2, to: &Pose2) -> f64 {
         let wrapped = |p: &Pose2| Pose2::new(p.x, p.y, wrap_angle(p.theta));
         // The candidates buffer no longer holds the ones a search cached.

@@ -13,6 +13,7 @@ use crate::distance_map::DistanceMap;
 use crate::error::{PlanErrorKind, PlanStats};
 use crate::heuristic::GridHeuristic;
 use crate::model::{DIR_NONE, Model, Shot};
+use crate::motion::pose_bits;
 use crate::reeds_shepp::Candidates;
 use crate::relief::Clearance;
 use crate::sampling::{append_motion, finish};
@@ -349,12 +350,6 @@ impl Search<'_> {
             }
         }
     }
-}
-
-/// A pose's bits, to know a result computed from it again.
-#[inline]
-fn pose_bits(p: &Pose2) -> [u64; 3] {
-    [p.x.to_bits(), p.y.to_bits(), p.theta.to_bits()]
 }
 
 /// The goal test of an analytic expansion: every motion of `shot` from `from` is
