@@ -9,6 +9,7 @@ use aisle_geometry::{Footprint, GridView, Pose2};
 
 use crate::band::Band;
 use crate::clearance::min_clearance;
+use crate::scp::FEASIBLE;
 
 /// Which way blocked poses are pushed, seen along the band's heading.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -58,7 +59,11 @@ fn shifted(p: &Pose2, d: f64) -> Pose2 {
 }
 
 /// Smallest sideways offset (multiples of 0.05 m up to `max_offset`) that clears pose
-/// `p` by `margin`, pushed towards `side`.
+/// `p` by `margin`, pushed towards `side`. When the side is `held` (the band already
+/// went around on it), a pose clear of every obstacle but short of the margin moves at
+/// most the margin: a push further than that to the held side carries it past an
+/// obstacle (through a wall, out of the aisle) to a place the band cannot bend to, and
+/// the optimiser, whose clearances are informative outside obstacles, does better.
 fn clearing_offset(
     map: &GridView,
     fp: &Footprint,
@@ -66,9 +71,15 @@ fn clearing_offset(
     p: &Pose2,
     side: Side,
     max_offset: f64,
+    held: bool,
 ) -> Option<f64> {
+    let limit = if held && min_clearance(map, fp, p, margin) >= 0.0 {
+        max_offset.min(margin + OFFSET_STEP)
+    } else {
+        max_offset
+    };
     let mut d = OFFSET_STEP;
-    while d <= max_offset + 1e-9 {
+    while d <= limit + 1e-9 {
         let q = shifted(p, side.sign() * d);
         if min_clearance(map, fp, &q, margin) >= margin {
             return Some(d);
@@ -78,11 +89,18 @@ fn clearing_offset(
     None
 }
 
-/// Whether any pose but the first violates the margin.
+/// Whether `p` is short of the margin by more than the optimiser's feasibility
+/// tolerance (a band the optimiser left a fraction of a millimetre inside the margin is
+/// feasible to it).
+fn short_of_margin(map: &GridView, fp: &Footprint, p: &Pose2, margin: f64) -> bool {
+    min_clearance(map, fp, p, margin) < margin - FEASIBLE
+}
+
+/// Whether any pose but the first is short of the margin.
 pub(crate) fn blocked(band: &Band, map: &GridView, fp: &Footprint, margin: f64) -> bool {
     band.poses[1..]
         .iter()
-        .any(|p| min_clearance(map, fp, p, margin) < margin)
+        .any(|p| short_of_margin(map, fp, p, margin))
 }
 
 /// Pushes every run of blocked poses (the first pose never moves) sideways. With
@@ -98,22 +116,23 @@ pub(crate) fn repair(
     max_offset: f64,
 ) -> Option<Side> {
     let n = band.poses.len();
+    let held = side.is_some();
     let mut chosen = None;
     let mut i = 1;
     while i < n {
-        if min_clearance(map, fp, &band.poses[i], margin) >= margin {
+        if !short_of_margin(map, fp, &band.poses[i], margin) {
             i += 1;
             continue;
         }
         let mut j = i;
-        while j + 1 < n && min_clearance(map, fp, &band.poses[j + 1], margin) < margin {
+        while j + 1 < n && short_of_margin(map, fp, &band.poses[j + 1], margin) {
             j += 1;
         }
         // Offset of the run for one side: the largest any of its poses needs.
         let run_offset = |s: Side| -> Option<f64> {
             let mut worst: f64 = 0.0;
             for p in &band.poses[i..=j] {
-                worst = worst.max(clearing_offset(map, fp, margin, p, s, max_offset)?);
+                worst = worst.max(clearing_offset(map, fp, margin, p, s, max_offset, held)?);
             }
             Some(worst)
         };
@@ -138,7 +157,7 @@ pub(crate) fn repair(
                     q
                 } else {
                     // The run's offset does not clear this pose; use its own.
-                    clearing_offset(map, fp, margin, &band.poses[k], s, max_offset)
+                    clearing_offset(map, fp, margin, &band.poses[k], s, max_offset, held)
                         .map_or(band.poses[k], |dk| shifted(&band.poses[k], s.sign() * dk))
                 };
             }
@@ -190,5 +209,42 @@ mod tests {
             Some(Side::Left)
         );
         assert!(left.poses[4].y > 0.5);
+    }
+
+    #[test]
+    fn a_pose_near_a_wall_is_not_pushed_through_it_to_the_held_side() {
+        // A 0.3 m wall from y = 0.3 to 0.6 with free floor beyond it; the band runs
+        // along y = 0, 0.02 m short of the 0.1 m margin below the wall.
+        let mut g = GridMap::new_free(-5.0, -5.0, 0.1, 10.0, 10.0).unwrap();
+        for ix in 0..100 {
+            for iy in 0..3 {
+                let c = g
+                    .view()
+                    .cell_of(-5.0 + 0.1 * ix as f64 + 0.05, 0.35 + 0.1 * iy as f64);
+                g.set(c, OCCUPIED_DETECTED);
+            }
+        }
+        let fp = Footprint::new(0.508, 0.43);
+        let straight = || Band {
+            poses: (0..9)
+                .map(|i| Pose2::new(0.5 * i as f64, 0.0, 0.0))
+                .collect(),
+            dts: vec![0.3; 8],
+        };
+        let mut band = straight();
+        assert!(blocked(&band, &g.view(), &fp, 0.1));
+        // Held to the wall's side, the run has no reachable clearing offset: it stays.
+        assert_eq!(
+            repair(&mut band, &g.view(), &fp, 0.1, Some(Side::Left), 3.0),
+            None
+        );
+        assert_eq!(band.poses, straight().poses);
+        // Free to choose, it moves away from the wall, a little.
+        let mut band = straight();
+        assert_eq!(
+            repair(&mut band, &g.view(), &fp, 0.1, None, 3.0),
+            Some(Side::Right)
+        );
+        assert!(band.poses[1..].iter().all(|p| (-0.2..0.0).contains(&p.y)));
     }
 }

@@ -1,5 +1,6 @@
 //! aisle-teb-controller: a timed-elastic-band local controller for a differential-drive
-//! robot, solved as a sequence of convex subproblems (clarabel).
+//! robot, solved as a sequence of convex subproblems (an interior-point solver for the
+//! band's banded structure, `conic/`; clarabel as its fallback).
 //!
 //! The band's poses and time steps are optimised for minimum time, closeness to the
 //! reference path and smoothness, with velocity limits as exact cones and kinematics,
@@ -24,6 +25,7 @@ mod band;
 pub mod case;
 mod clearance;
 mod config;
+mod conic;
 mod controller;
 mod detour;
 mod direction;

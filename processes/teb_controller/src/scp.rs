@@ -1,5 +1,5 @@
 //! Sequential convex programming over a band: each iteration builds the convex model
-//! of the objective (`objective/`) around the current band, solves it with clarabel
+//! of the objective (`objective/`) around the current band, solves it (`qp.rs`)
 //! inside a trust region (`trust_region.rs`), and keeps the step if the exact merit
 //! drops. Knows nothing of goals, sections or the bus, nor of the objective's terms: it
 //! receives a [`Problem`] and a band and improves the band.

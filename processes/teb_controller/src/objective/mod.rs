@@ -137,7 +137,7 @@ pub(crate) fn model(
     hits: &mut [Option<CellHit>; 4],
 ) {
     let m = band.poses.len() - 1;
-    qp.reset(4 * m);
+    qp.reset(4 * m, |c| segment::band_position(m, c));
     time::linearise(qp, p, band);
     // The region's proximal terms enter the Hessian's diagonal before the squares.
     region.constrain(qp, p, band);

@@ -21,6 +21,18 @@ pub(crate) fn tc(m: usize, k: usize) -> usize {
     3 * m + k
 }
 
+/// Where column `col` of a band of `m` segments goes in the subproblem's elimination
+/// order: pose i's three coordinates, then the time step that ends at it, pose by pose.
+/// Every term couples at most three consecutive poses and their time steps, so the
+/// Newton systems are banded in this order (a half-bandwidth of about 12).
+pub(crate) fn band_position(m: usize, col: usize) -> usize {
+    if col < 3 * m {
+        4 * (col / 3) + col % 3
+    } else {
+        4 * (col - 3 * m) + 3
+    }
+}
+
 /// Component `c` of pose `i`'s step in `d` (zero for the fixed pose 0).
 #[inline]
 pub(crate) fn d_at(d: &[f64], i: usize, c: usize) -> f64 {
