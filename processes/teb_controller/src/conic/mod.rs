@@ -11,6 +11,7 @@
 //! | file        | holds                                                   |
 //! |-------------|---------------------------------------------------------|
 //! | `cone.rs`   | scaling, Jordan product and step length of one cone     |
+//! | `data.rs`   | the subproblem as the caller hands it over              |
 //! | `banded.rs` | the banded L D L' factorisation                         |
 //! | `kkt.rs`    | the rows, the slacks and the reduced Newton system      |
 //!
@@ -24,12 +25,13 @@
 
 mod banded;
 mod cone;
+mod data;
 mod kkt;
 mod rays;
 #[cfg(test)]
 mod tests;
 
-pub(crate) use kkt::Data;
+pub(crate) use data::Data;
 
 use cone::{Scaling, divide, product, step_length, violation};
 use kkt::Kkt;
