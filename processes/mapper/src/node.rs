@@ -114,6 +114,26 @@ impl MapperStage {
     }
 
     /// Integrates one cloud; `Failed` when the cloud or the scan is refused.
+    /// The zones of the latest `MapperControl`: ignored and carried bodies, and the
+    /// set-down parts the map keeps as known obstacles.
+    fn apply_control(&mut self, io: &impl Io) -> Result<(), NodeError> {
+        if let Some(c) = io.latest(topics::MAPPER_CONTROL)? {
+            self.ignore = zone(&c.ignore);
+            self.carried = zone(&c.carried);
+            let n = (c.placed_count as usize).min(c.placed.len());
+            self.placed.clear();
+            self.placed.extend(
+                c.placed[..n]
+                    .iter()
+                    .filter_map(zone)
+                    .filter(|z| z.pose.is_finite())
+                    .map(|z| (z.pose, z.footprint)),
+            );
+            self.mapper.set_placed(&self.placed);
+        }
+        Ok(())
+    }
+
     fn integrate(&mut self, cloud: &PointCloud) -> StageStatus {
         let sp = cloud.sensor_pose;
         let sensor = SensorPose::from_rpy(sp.position, sp.rpy[0], sp.rpy[1], sp.rpy[2]);
@@ -206,10 +226,14 @@ impl Stage for MapperStage {
         )
     }
 
-    /// A restarted mapper takes its detections back from the last global map (kept and
-    /// published again by the supervisor). Scans are integrated again after a restart:
-    /// integrating a scan twice changes nothing, so the newest one is simply redone.
+    /// A restarted mapper takes the zones of the latest `MapperControl` back (the set-down
+    /// racks' legs are part of its static layer) and its detections from the last global
+    /// map (kept and published again by the supervisor), at that map's version: it goes
+    /// on exactly as the mapper before it, and publishes the next map when that one
+    /// would have. Scans are integrated again after a restart: integrating a scan twice
+    /// changes nothing, so the newest one is simply redone.
     fn restore(&mut self, io: &impl Io, _ctx: &RunContext) -> Result<(), NodeError> {
+        self.apply_control(io)?;
         if let Some(g) = io.retained(topics::GLOBAL_MAP, Duration::from_secs(1))? {
             let view = g
                 .view()
@@ -229,20 +253,7 @@ impl Stage for MapperStage {
         }
         self.last_tick = Some(cloud.header.tick);
         let timer = StageTimer::start();
-        if let Some(c) = io.latest(topics::MAPPER_CONTROL)? {
-            self.ignore = zone(&c.ignore);
-            self.carried = zone(&c.carried);
-            let n = (c.placed_count as usize).min(c.placed.len());
-            self.placed.clear();
-            self.placed.extend(
-                c.placed[..n]
-                    .iter()
-                    .filter_map(zone)
-                    .filter(|z| z.pose.is_finite())
-                    .map(|z| (z.pose, z.footprint)),
-            );
-            self.mapper.set_placed(&self.placed);
-        }
+        self.apply_control(io)?;
         let status = self.integrate(cloud);
         self.publish_maps(io, Stamp::of(&cloud.header), cloud.robot_pose.into())?;
         Ok(Cycle {
