@@ -4,11 +4,12 @@
 //! (its copy of the cells, distance tiles, heuristic and buffers included); "warm"
 //! repeats the request on one planner; "changed" alternately adds and removes a small
 //! detection (0.3 x 0.3 m) beside the path halfway along, so every request follows a
-//! map change.
+//! map change. Each runs with the planner settings `config/large` ships (weighted A*,
+//! `large/...`) and with the defaults (plain A*, `large_plain/...`) for comparison.
 
-use aisle_geometry::{CellIndex, OCCUPIED_STATIC};
-use aisle_global_planner::large_map::{crossing, params, static_map};
-use aisle_global_planner::{Planner, PlannerConfig};
+use aisle_geometry::{CellIndex, GridMap, OCCUPIED_STATIC};
+use aisle_global_planner::large_map::{crossing, params, planner_config, static_map};
+use aisle_global_planner::{PlanRequest, Planner, PlannerConfig};
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 
@@ -25,12 +26,33 @@ fn large(c: &mut Criterion) {
         };
         detected.set(cell, OCCUPIED_STATIC);
     }
-    let cfg = PlannerConfig::default();
-    let mut planner = Planner::new(cfg.clone()).expect("default config is valid");
-    for m in [&map, &detected] {
-        let plan = planner.plan(&req, &m.view()).expect("the crossing plans");
+    let shipped = planner_config().expect("config/large/planner.toml loads");
+    cases(c, "large", &shipped, &req, &map, &detected);
+    cases(
+        c,
+        "large_plain",
+        &PlannerConfig::default(),
+        &req,
+        &map,
+        &detected,
+    );
+}
+
+fn cases(
+    c: &mut Criterion,
+    group: &str,
+    cfg: &PlannerConfig,
+    req: &PlanRequest,
+    map: &GridMap,
+    detected: &GridMap,
+) {
+    let mut planner = Planner::new(cfg.clone()).expect("the config is valid");
+    for m in [map, detected] {
+        let plan = planner.plan(req, &m.view()).expect("the crossing plans");
         println!(
-            "large @ 20 cells/m: {} x {} cells, length {:.1} m, {} expansions, {} heuristic cells",
+            "{group} @ 20 cells/m (heuristic weight {}): {} x {} cells, length {:.1} m, \
+             {} expansions, {} heuristic cells",
+            cfg.heuristic_weight,
             m.width,
             m.height,
             plan.stats.path_length,
@@ -38,24 +60,24 @@ fn large(c: &mut Criterion) {
             plan.stats.heuristic_cells
         );
     }
-    let mut group = c.benchmark_group("large");
+    let mut group = c.benchmark_group(group);
     group.sample_size(20);
     group.bench_function("cold/20cpm/crossing_100m", |b| {
         b.iter(|| {
             let mut p = Planner::new(cfg.clone()).expect("valid");
-            black_box(p.plan(black_box(&req), &map.view()).is_ok())
+            black_box(p.plan(black_box(req), &map.view()).is_ok())
         })
     });
     let view = map.view();
     group.bench_function("warm/20cpm/crossing_100m", |b| {
-        b.iter(|| black_box(planner.plan(black_box(&req), &view).is_ok()))
+        b.iter(|| black_box(planner.plan(black_box(req), &view).is_ok()))
     });
     let mut flip = false;
     group.bench_function("changed/20cpm/crossing_100m", |b| {
         b.iter(|| {
             flip = !flip;
-            let m = if flip { &detected } else { &map };
-            black_box(planner.plan(black_box(&req), &m.view()).is_ok())
+            let m = if flip { detected } else { map };
+            black_box(planner.plan(black_box(req), &m.view()).is_ok())
         })
     });
     group.finish();

@@ -11,7 +11,9 @@ pub struct PlanStats {
     pub analytic_checks: u32,
     /// Pose probes made by the collision checker.
     pub collision_probes: u64,
-    /// Cells settled by the 2D heuristic's grid search.
+    /// Cells settled by the 2D heuristic's grid search (on a large map, a search resumed
+    /// from an earlier request to the same goal on the same map counts those it settled
+    /// then too).
     pub heuristic_cells: u32,
     /// Whether this request had to rebuild the map's distance tables.
     pub map_rebuilt: bool,

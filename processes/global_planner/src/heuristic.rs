@@ -14,9 +14,11 @@
 //! algorithm: f grows by at most 14 per step). A consistent heuristic makes every closed
 //! cell's distance exact, so a query returns the same value as a search over the whole
 //! map: when its cell is not closed yet, the search resumes until it is (or until the
-//! queue runs dry, which proves the cell unreachable). Small maps are searched whole at
-//! once (`eager`, plain Dijkstra), which also counts the cells the goal can be reached
-//! from. One array holds, per cell, blocked, not decided yet, or the distance of this
+//! queue runs dry, which proves the cell unreachable). A request to the same goal cell
+//! on the same map and body resumes the last request's search rather than starting
+//! again (replans along a leg, repeated requests): its closed distances are as exact for
+//! any start. Small maps are searched whole at once (`eager`, plain Dijkstra), which
+//! also counts the cells the goal can be reached from. One array holds, per cell, blocked, not decided yet, or the distance of this
 //! request (untouched: unreached), so that a neighbour costs one comparison; blocked
 //! flags are kept between requests and dropped where the distance map changed, and only
 //! the cells a request touched are reset. Knows nothing of headings or motions.
@@ -67,7 +69,9 @@ pub(crate) struct GridHeuristic {
     /// Whether the last request searched everything reachable (its cells are reset by
     /// a pass over the grid, not from `touched`).
     eager_last: bool,
-    /// Cells closed in this request.
+    /// The goal cell of the lazy search the tables hold (`None`: none to resume).
+    lazy_goal: Option<usize>,
+    /// Cells closed by the search the tables hold (a resumed search counts on).
     pub settled: u32,
 }
 
@@ -84,6 +88,11 @@ impl GridHeuristic {
         (goal, start): ((f64, f64), (f64, f64)),
         eager: bool,
     ) -> bool {
+        let f = ((cell_size / dm.resolution).round() as usize).max(1);
+        if !eager && self.resumable(dm, r_in, f, goal) {
+            return true;
+        }
+        self.lazy_goal = None;
         if self.eager_last {
             // After a search over everything reachable, a pass is cheaper than a list
             // (and it closed nothing: `closed` is for lazy searches, whose closed cells
@@ -98,7 +107,6 @@ impl GridHeuristic {
             self.closed[c as usize] = false;
         }
         self.touched.clear();
-        let f = ((cell_size / dm.resolution).round() as usize).max(1);
         self.refresh_blocked(dm, r_in, f);
         for b in &mut self.buckets {
             b.clear();
@@ -121,6 +129,7 @@ impl GridHeuristic {
         self.g[gi] = 1;
         if !eager {
             self.touched.push(gi as u32);
+            self.lazy_goal = Some(gi);
         }
         self.level = 1 + self.h(gi);
         self.buckets[self.level as usize % RING].push(((gi as u64) << 32) | 1);
@@ -129,6 +138,20 @@ impl GridHeuristic {
             self.run::<false>(dm, None);
         }
         true
+    }
+
+    /// Whether the last request's lazy search serves this one as it stands: the same
+    /// goal cell, body and grid, and no map change since. Every cell it closed holds its
+    /// exact distance whichever start it was aimed at (the octile estimate is consistent
+    /// towards any target), so resuming it answers every query as a fresh search would;
+    /// only the order of the cells it still closes follows the old start.
+    fn resumable(&self, dm: &DistanceMap, r_in: f64, f: usize, goal: (f64, f64)) -> bool {
+        let Some(gi) = self.lazy_goal else {
+            return false;
+        };
+        self.key == Some((geometry_of(dm), r_in.to_bits(), f))
+            && self.seen_generation == dm.generation
+            && self.index_of(goal.0, goal.1) == Some(gi)
     }
 
     /// Sizes and touches its tables for `dm` with cells of about `cell_size` metres before
@@ -269,14 +292,7 @@ impl GridHeuristic {
 
     /// Keeps the blocked flags that still hold for this map, body and grid.
     fn refresh_blocked(&mut self, dm: &DistanceMap, r_in: f64, f: usize) {
-        let geometry = [
-            dm.width as u64,
-            dm.height as u64,
-            dm.origin_x.to_bits(),
-            dm.origin_y.to_bits(),
-            dm.resolution.to_bits(),
-        ];
-        let key = (geometry, r_in.to_bits(), f);
+        let key = (geometry_of(dm), r_in.to_bits(), f);
         if self.key == Some(key) {
             if self.seen_generation != dm.generation {
                 self.drop_changed(dm);
@@ -340,6 +356,17 @@ impl GridHeuristic {
             None
         }
     }
+}
+
+/// The map geometry the blocked flags are keyed by.
+fn geometry_of(dm: &DistanceMap) -> [u64; 5] {
+    [
+        dm.width as u64,
+        dm.height as u64,
+        dm.origin_x.to_bits(),
+        dm.origin_y.to_bits(),
+        dm.resolution.to_bits(),
+    ]
 }
 
 /// Octile distance (in steps of 5 and 7) from padded cell `i` (row stride `stride`) to

@@ -12,6 +12,14 @@ pub fn params() -> GenParams {
     GenParams::new(19, 172.0, 1)
 }
 
+/// The planner settings `config/large` ships (`config/large/planner.toml` over the
+/// defaults: weighted A*), read from the checkout this crate is built from.
+pub fn planner_config() -> Result<crate::PlannerConfig, aisle_config::ConfigError> {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/large/planner.toml");
+    aisle_config::load(&path)
+}
+
 /// Every static body's parts that reach below 0.5 m, as occupied cells (a cell is
 /// occupied when its centre lies in a part's rectangle).
 pub fn static_map(p: &GenParams, cells_per_m: f64) -> GridMap {

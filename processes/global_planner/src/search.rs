@@ -281,6 +281,7 @@ fn output_path(
             .all(|w| output.motion_free(&w[0].pose, &Motion::Lerp { to: w[1].pose }, probes))
     };
     let mut path = buf.raw.clone();
+    let checked = &mut buf.checked;
     if cfg.smoothing {
         let params = SmoothParams {
             weight_data: cfg.smoothing_weight_data,
@@ -289,11 +290,31 @@ fn output_path(
             radius,
         };
         let probes = &mut stats.collision_probes;
-        stats.smoothed = smooth_path(&mut path, &params, &mut buf.smooth_scratch, |s| {
+        stats.smoothed = smooth_path(&mut path, &params, &mut buf.smooth_scratch, checked, |s| {
             sweep_ok(s, probes)
         });
+    } else {
+        checked.clear();
     }
-    if !sweep_ok(&path, &mut stats.collision_probes) {
+    // Every stretch the smoothing kept passed this very sweep as it stands; the rest (the
+    // traced motions, checked by the search's stricter checker) is swept here.
+    let mut from = 0;
+    let mut rest_ok = true;
+    for r in checked
+        .iter()
+        .chain(std::iter::once(&(path.len()..path.len())))
+    {
+        // Stretches share their end poses: sweep from the last checked pose to the next.
+        let upto = (r.start + 1).min(path.len());
+        if upto > from + 1 {
+            rest_ok &= sweep_ok(&path[from..upto], &mut stats.collision_probes);
+        }
+        from = from.max(r.end.saturating_sub(1));
+        if !rest_ok {
+            break;
+        }
+    }
+    if !rest_ok {
         if !stats.smoothed || !sweep_ok(&buf.raw, &mut stats.collision_probes) {
             return Err(PlanErrorKind::ValidationFailed);
         }

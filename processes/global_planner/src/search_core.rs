@@ -84,6 +84,8 @@ pub(crate) struct Buffers {
     pub(crate) shots: Vec<Shot>,
     pub(crate) chain: Vec<u32>,
     pub(crate) smooth_scratch: Vec<PathPose>,
+    /// The output path's stretches the smoothing kept, collision-checked already.
+    pub(crate) checked: Vec<std::ops::Range<usize>>,
     pub(crate) raw: Vec<PathPose>,
 }
 

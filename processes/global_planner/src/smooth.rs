@@ -17,13 +17,16 @@ pub(crate) struct SmoothParams {
 }
 
 /// Smooths `path` in place. `valid(stretch)` must say whether a stretch of poses is
-/// collision-free. Returns whether any stretch changed.
+/// collision-free. Returns whether any stretch changed; `kept` gets, for every smoothed
+/// stretch kept, the range of its poses (`valid` passed them as they now stand).
 pub(crate) fn smooth_path(
     path: &mut [PathPose],
     params: &SmoothParams,
     scratch: &mut Vec<PathPose>,
+    kept: &mut Vec<std::ops::Range<usize>>,
     mut valid: impl FnMut(&[PathPose]) -> bool,
 ) -> bool {
+    kept.clear();
     let mut changed = false;
     let mut start = 0;
     while start + 1 < path.len() {
@@ -33,8 +36,12 @@ pub(crate) fn smooth_path(
             end += 1;
         }
         // Poses start..=end: `end` is where the next stretch starts (or the goal).
-        if dir != Direction::Rotate && end - start >= 6 {
-            changed |= smooth_stretch(&mut path[start..=end], dir, params, scratch, &mut valid);
+        if dir != Direction::Rotate
+            && end - start >= 6
+            && smooth_stretch(&mut path[start..=end], dir, params, scratch, &mut valid)
+        {
+            changed = true;
+            kept.push(start..end + 1);
         }
         start = end;
     }

@@ -92,3 +92,71 @@ fn lazy_queries_equal_the_whole_search() {
     }
     assert!(compared.0 > 3000 && compared.1 > 10, "{compared:?}");
 }
+
+/// A request to the same goal resumes the lazy search the last one left (another start,
+/// the same distances, its closed cells kept); a map change, another goal cell or body
+/// starts afresh.
+#[test]
+fn a_resumed_search_answers_as_a_fresh_one() {
+    let mut g = GridMap::new_free(0.0, 0.0, 0.05, 30.0, 20.0).unwrap();
+    let (w, h) = (g.view().width as i64, g.view().height as i64);
+    let mut next = crate::tests::stream(0x2545_f491_4f6c_dd1d);
+    for _ in 0..60 {
+        let (x0, y0, len) = (next(w), next(h), 10 + next(120));
+        for k in 0..len {
+            g.set(CellIndex { ix: x0 + k, iy: y0 }, OCCUPIED_STATIC);
+        }
+    }
+    let mut dm = DistanceMap::default();
+    dm.ensure(&g.view());
+    let point = |k: i64| {
+        (
+            0.1 + k as f64 * 0.0337 % 29.8,
+            0.1 + k as f64 * 0.0713 % 19.8,
+        )
+    };
+    let (mut whole, mut lazy) = (GridHeuristic::default(), GridHeuristic::default());
+    let goal = loop {
+        let goal = point(next(100_000));
+        if whole.begin(&dm, 0.3, 0.1, (goal, goal), true) {
+            break goal;
+        }
+    };
+    let reachable = whole.settled;
+    let (mut resumed, mut compared) = (0, 0);
+    for round in 0..12 {
+        let start = point(next(100_000));
+        let before = lazy.settled;
+        assert!(lazy.begin(&dm, 0.3, 0.1, (goal, start), false));
+        if round > 0 {
+            // Resumed: nothing reset, the cells closed so far still counted.
+            assert_eq!(lazy.settled, before, "round {round}");
+            resumed += 1;
+        }
+        for (x, y) in std::iter::once(start).chain((0..300).map(|_| point(next(100_000)))) {
+            let a = whole.metres(&dm, x, y);
+            assert_eq!(
+                a.map(f64::to_bits),
+                lazy.metres(&dm, x, y).map(f64::to_bits)
+            );
+            compared += 1;
+        }
+        assert!(lazy.settled <= reachable);
+    }
+    lazy.complete(&dm);
+    assert_eq!(lazy.settled, reachable);
+    assert!(resumed == 11 && compared > 3000);
+    // The goal in another cell, another body, a map change: each starts afresh.
+    let other = (goal.0 + 0.35, goal.1);
+    let _ = lazy.begin(&dm, 0.3, 0.1, (other, goal), false);
+    assert_eq!(lazy.settled, 0);
+    let _ = lazy.begin(&dm, 0.3, 0.1, (goal, other), false);
+    lazy.complete(&dm);
+    assert!(lazy.begin(&dm, 0.25, 0.1, (goal, other), false));
+    assert_eq!(lazy.settled, 0);
+    lazy.complete(&dm);
+    g.set(CellIndex { ix: 0, iy: 0 }, OCCUPIED_STATIC);
+    dm.ensure(&g.view());
+    assert!(lazy.begin(&dm, 0.25, 0.1, (goal, other), false));
+    assert_eq!(lazy.settled, 0);
+}

@@ -100,3 +100,35 @@ fn compare_on_seed(cfg: &PlannerConfig, budget: u32, cpm: f64) -> (usize, usize)
     }
     (fewer_cells, spent)
 }
+
+/// Replans to the same goal from other starts (the lazy planner resumes its heuristic's
+/// search, the eager one searches whole each time): the same paths and counters.
+#[test]
+fn replans_to_one_goal_plan_the_same_paths_as_eager_ones() {
+    let map: GridMap = seed_map::seed_map(10.0);
+    let reqs: Vec<PlanRequest> = seed_map::seed_segments().iter().map(request).collect();
+    let cfg = PlannerConfig::default();
+    let (mut eager, mut lazy) = (
+        Planner::new(cfg.clone()).unwrap(),
+        Planner::new(cfg).unwrap(),
+    );
+    lazy.lazy_only = true;
+    let mut planned = 0;
+    for (i, r) in reqs.iter().enumerate() {
+        for (j, from) in reqs.iter().enumerate() {
+            let replan = PlanRequest {
+                start: from.start,
+                footprint: r.footprint,
+                margin: r.margin,
+                ..*r
+            };
+            let (a, b) = (
+                eager.plan(&replan, &map.view()),
+                lazy.plan(&replan, &map.view()),
+            );
+            same_outcome(&a, &b, &format!("goal of request {i}, start of {j}"));
+            planned += usize::from(a.is_ok());
+        }
+    }
+    assert!(planned > reqs.len(), "{planned} plans");
+}
