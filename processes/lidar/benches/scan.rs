@@ -11,7 +11,8 @@
 //! the count, so the density around the sensor stays that of a warehouse. The pose is
 //! the same kind in every scene: in the middle picking aisle, 14 m past its start,
 //! heading along it, level and tilted (roll 0.05, pitch -0.1 rad, as the seed's tilted
-//! case).
+//! case). Scans use one thread as shipped (`scan_threads`); the `two threads` cases
+//! sweep half a tilted scan's columns on a second thread.
 
 use aisle_config::scene::{Body, BoxPart, Scene};
 use aisle_config::scene_gen::{GenParams, Layout, generate_scene};
@@ -181,11 +182,16 @@ fn generated(c: &mut Criterion) {
     ] {
         let scene = generate_scene(&p);
         let mut r = Raycaster::new(&quiet, &scene).expect("raycaster");
+        let two = LidarConfig {
+            scan_threads: 2,
+            ..quiet.clone()
+        };
+        let mut r2 = Raycaster::new(&two, &scene).expect("raycaster");
         let mut out = vec![[0.0f32; 3]; r.len()];
+        let n = scene.bodies.len();
         for tilted in [false, true] {
             let pose = in_aisle(&p, tilted);
             let kind = if tilted { "tilted" } else { "level" };
-            let n = scene.bodies.len();
             g.bench_function(format!("{kind} {label} ({n} bodies)"), |b| {
                 b.iter(|| {
                     r.scan(black_box(&pose), 0, &mut out).expect("scan");
@@ -193,6 +199,13 @@ fn generated(c: &mut Criterion) {
                 })
             });
         }
+        let pose = in_aisle(&p, true);
+        g.bench_function(format!("tilted {label} ({n} bodies), two threads"), |b| {
+            b.iter(|| {
+                r2.scan(black_box(&pose), 0, &mut out).expect("scan");
+                black_box(&out);
+            })
+        });
     }
     g.finish();
 }

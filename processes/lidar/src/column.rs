@@ -60,40 +60,81 @@ impl Active {
 #[derive(Debug, Clone, Default)]
 pub(crate) struct Sweep {
     pub(crate) spans: Vec<Span>,
-    active: Vec<Active>,
-    next: usize,
+    cursor: Cursor,
 }
 
 impl Sweep {
     pub(crate) fn with_capacity(spans: usize) -> Sweep {
         Sweep {
             spans: Vec::with_capacity(spans),
-            active: Vec::with_capacity(spans),
-            next: 0,
+            cursor: Cursor::with_capacity(spans),
         }
     }
 
     pub(crate) fn clear(&mut self) {
         self.spans.clear();
-        self.active.clear();
-        self.next = 0;
+        self.cursor.restart();
     }
 
     /// Call once every span is pushed, before the first [`Sweep::advance`].
     pub(crate) fn start(&mut self) {
-        self.spans.sort_unstable_by_key(|s| (s.c_lo, s.item));
+        sort_spans(&mut self.spans);
+        self.cursor.restart();
+    }
+
+    /// Moves to column `col` (columns in increasing order).
+    #[inline]
+    pub(crate) fn advance(&mut self, col: usize) {
+        self.cursor.advance(&self.spans, col);
+    }
+
+    /// The spans covering the current column, nearest first.
+    #[inline]
+    pub(crate) fn active(&self) -> &[Active] {
+        self.cursor.active()
+    }
+}
+
+/// Puts spans in the order a [`Cursor`] reads them.
+pub(crate) fn sort_spans(spans: &mut [Span]) {
+    spans.sort_unstable_by_key(|s| (s.c_lo, s.item));
+}
+
+/// The spans (of a list sorted by [`sort_spans`], which someone else may own) that cover
+/// the current column, nearest first. It may start at any column: the list it holds
+/// there is the same as if it had advanced through every column before.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Cursor {
+    active: Vec<Active>,
+    next: usize,
+}
+
+impl Cursor {
+    pub(crate) fn with_capacity(spans: usize) -> Cursor {
+        Cursor {
+            active: Vec::with_capacity(spans),
+            next: 0,
+        }
+    }
+
+    /// Back before the first column.
+    pub(crate) fn restart(&mut self) {
         self.active.clear();
         self.next = 0;
     }
 
-    /// Moves to column `col` (columns in increasing order).
-    pub(crate) fn advance(&mut self, col: usize) {
+    /// Moves to column `col` of `spans` (columns in increasing order since the last
+    /// restart).
+    pub(crate) fn advance(&mut self, spans: &[Span], col: usize) {
         let col = col as u32;
         self.active.retain(|a| a.c_hi >= col);
-        while let Some(s) = self.spans.get(self.next).filter(|s| s.c_lo <= col) {
-            let key = s.key();
-            let at = self.active.partition_point(|a| a.key < key);
-            self.active.insert(at, Active { key, c_hi: s.c_hi });
+        while let Some(s) = spans.get(self.next).filter(|s| s.c_lo <= col) {
+            // Spans that ended before `col` only occur when a cursor starts past them.
+            if s.c_hi >= col {
+                let key = s.key();
+                let at = self.active.partition_point(|a| a.key < key);
+                self.active.insert(at, Active { key, c_hi: s.c_hi });
+            }
             self.next += 1;
         }
     }

@@ -58,7 +58,7 @@ impl Raycaster {
         let boxes = world.box_count();
         let mut r = Raycaster {
             planar: PlanarCaster::new(boxes, &pattern),
-            general: GeneralCaster::new(boxes, &pattern),
+            general: GeneralCaster::new(boxes, &pattern, config.scan_threads as usize),
             pattern,
             world,
             hit_floor: config.hit_floor,
@@ -182,8 +182,7 @@ impl Raycaster {
                 ScanPath::Planar,
             ),
             None => (
-                self.general
-                    .scan(&self.pattern, &self.world, sensor, self.hit_floor, out),
+                self.general.scan(&self.world, sensor, self.hit_floor, out),
                 ScanPath::General,
             ),
         };

@@ -544,6 +544,11 @@ mod allocation {
     fn a_scan_allocates_nothing() {
         let scene = warehouse();
         let mut r = Raycaster::new(&LidarConfig::default(), &scene).unwrap();
+        let two = LidarConfig {
+            scan_threads: 2,
+            ..LidarConfig::default()
+        };
+        let mut r2 = Raycaster::new(&two, &scene).unwrap();
         let mut out = cloud(&r);
         let (rack, _) = scene.body("rack2b").unwrap();
         let tilted = SensorPose::from_xyz_rpy([2.0, 11.0, 0.2], [0.1, 0.2, 1.0]);
@@ -551,9 +556,13 @@ mod allocation {
         for k in 0..3 {
             r.set_body_pose(rack, Pose2::new(2.0, 13.0 + 0.1 * k as f64, 1.0))
                 .unwrap();
+            r2.set_body_pose(rack, Pose2::new(2.0, 13.0 + 0.1 * k as f64, 1.0))
+                .unwrap();
             r.scan(&level(2.0, 11.0, FRAC_PI_2), k, &mut out).unwrap();
             r.scan(&level(0.0, 0.0, 0.0), k, &mut out).unwrap();
             r.scan(&tilted, k, &mut out).unwrap();
+            // The helper thread's hand-over allocates nothing either.
+            r2.scan(&tilted, k, &mut out).unwrap();
             r.scan_robot(&Pose2::new(2.0, 12.0, 1.0), k, &mut out)
                 .unwrap();
         }
@@ -563,3 +572,4 @@ mod allocation {
 
 mod golden;
 mod large;
+mod threads;
