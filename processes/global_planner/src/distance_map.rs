@@ -53,7 +53,7 @@ impl Window {
     }
 
     /// Grown by `bx` cells left and right and `by` up and down, clipped to `w` x `h`.
-    fn grown(&self, bx: usize, by: usize, w: usize, h: usize) -> Window {
+    pub(crate) fn grown(&self, bx: usize, by: usize, w: usize, h: usize) -> Window {
         Window {
             x0: self.x0.saturating_sub(bx),
             y0: self.y0.saturating_sub(by),
@@ -88,7 +88,9 @@ pub(crate) struct DistanceMap {
     /// refresh.
     pub generation: u64,
     /// (generation, window whose distances it changed) of the last updates.
-    changes: Vec<(u64, Window)>,
+    /// Per change: its generation, the window whose distances changed, and the window
+    /// of the cells that changed.
+    changes: Vec<(u64, Window, Window)>,
     /// Cells the last change invalidated (the whole grid on a rebuild), for diagnostics.
     pub last_recomputed: usize,
     /// Distance tiles computed since the last rebuild, for diagnostics.
@@ -132,7 +134,7 @@ impl DistanceMap {
         if self.changes.len() == CHANGE_LOG {
             self.changes.remove(0);
         }
-        self.changes.push((self.generation, dists));
+        self.changes.push((self.generation, dists, changed));
         self.last_recomputed = dists.area();
         true
     }
@@ -140,9 +142,19 @@ impl DistanceMap {
     /// The windows whose distances changed after generation `seen`, oldest first;
     /// `None` when that is not known (a rebuild since, or too long ago).
     pub fn changes_since(&self, seen: u64) -> Option<impl Iterator<Item = Window> + '_> {
+        Some(self.logged_since(seen)?.map(|c| c.1))
+    }
+
+    /// The windows of the cells that changed after generation `seen`, as
+    /// [`DistanceMap::changes_since`].
+    pub fn cell_changes_since(&self, seen: u64) -> Option<impl Iterator<Item = Window> + '_> {
+        Some(self.logged_since(seen)?.map(|c| c.2))
+    }
+
+    fn logged_since(&self, seen: u64) -> Option<impl Iterator<Item = &(u64, Window, Window)>> {
         let first = self.changes.first()?.0;
         (seen + 1 >= first && seen <= self.generation)
-            .then(|| self.changes.iter().filter(move |c| c.0 > seen).map(|c| c.1))
+            .then(|| self.changes.iter().filter(move |c| c.0 > seen))
     }
 
     /// The rows and columns where `map` differs from the kept cells, if anywhere.

@@ -25,6 +25,9 @@
 
 use crate::blocked::Disk;
 use crate::distance_map::DistanceMap;
+use coarse::Coarse;
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
 
 const SIDE: u32 = 5;
 const DIAG: u32 = 7;
@@ -62,6 +65,13 @@ pub(crate) struct GridHeuristic {
     touched: Vec<u32>,
     /// Open entries (cell << 32 | g) by f modulo the ring.
     buckets: [Vec<u64>; RING],
+    /// Open entries by f whose f is too far ahead for the ring (only after a repair,
+    /// whose frontier spans many levels); fed to the ring as the level nears them.
+    deferred: BinaryHeap<Reverse<(u32, u64)>>,
+    /// A repair's scratch: coarse cells re-decided, with their values before, and the
+    /// cells it made unreached again (forgotten or freed).
+    redecided: Vec<(usize, u32)>,
+    reopened: Vec<u32>,
     level: u32,
     pending: usize,
     /// Coarse cell of the start (the A* target); `None`: Dijkstra.
@@ -92,6 +102,9 @@ impl GridHeuristic {
         if !eager && self.resumable(dm, r_in, f, goal) {
             return true;
         }
+        if !eager && self.repairable(dm, r_in, f, goal) {
+            return self.repair(dm, start);
+        }
         self.lazy_goal = None;
         if self.eager_last {
             // After a search over everything reachable, a pass is cheaper than a list
@@ -103,7 +116,10 @@ impl GridHeuristic {
             }
         }
         for &c in &self.touched {
-            self.g[c as usize] = UNREACHED;
+            // A repair may have blocked a cell it had reached.
+            if self.g[c as usize] != BLOCKED {
+                self.g[c as usize] = UNREACHED;
+            }
             self.closed[c as usize] = false;
         }
         self.touched.clear();
@@ -111,15 +127,10 @@ impl GridHeuristic {
         for b in &mut self.buckets {
             b.clear();
         }
+        self.deferred.clear();
         (self.settled, self.level, self.pending) = (0, 0, 0);
         self.eager_last = eager;
-        self.target = (!eager).then(|| {
-            let clamp = |v: f64, n: usize| (v.max(0.0) as usize).min(n - 1);
-            (
-                clamp((start.0 - self.origin_x) / self.cell, self.width),
-                clamp((start.1 - self.origin_y) / self.cell, self.height),
-            )
-        });
+        self.target = (!eager).then(|| self.target_of(start));
         let Some(gi) = self.index_of(goal.0, goal.1) else {
             return false;
         };
@@ -138,20 +149,6 @@ impl GridHeuristic {
             self.run::<false>(dm, None);
         }
         true
-    }
-
-    /// Whether the last request's lazy search serves this one as it stands: the same
-    /// goal cell, body and grid, and no map change since. Every cell it closed holds its
-    /// exact distance whichever start it was aimed at (the octile estimate is consistent
-    /// towards any target), so resuming it answers every query as a fresh search would;
-    /// only the order of the cells it still closes follows the old start.
-    fn resumable(&self, dm: &DistanceMap, r_in: f64, f: usize, goal: (f64, f64)) -> bool {
-        let Some(gi) = self.lazy_goal else {
-            return false;
-        };
-        self.key == Some((geometry_of(dm), r_in.to_bits(), f))
-            && self.seen_generation == dm.generation
-            && self.index_of(goal.0, goal.1) == Some(gi)
     }
 
     /// Sizes and touches its tables for `dm` with cells of about `cell_size` metres before
@@ -228,6 +225,7 @@ impl GridHeuristic {
         let target = self.target;
         let (g, closed) = (&mut self.g[..], &mut self.closed[..]);
         let (buckets, touched) = (&mut self.buckets, &mut self.touched);
+        let deferred = &mut self.deferred;
         let (mut level, mut pending, mut settled) = (self.level, self.pending, self.settled);
         let mut found = false;
         let mut open = Open {
@@ -238,7 +236,20 @@ impl GridHeuristic {
             dm,
             target,
         };
-        'levels: while pending > 0 {
+        'levels: while pending > 0 || !deferred.is_empty() {
+            if pending == 0
+                && let Some(&Reverse((f, _))) = deferred.peek()
+            {
+                level = level.max(f);
+            }
+            while let Some(&Reverse((f, entry))) = deferred.peek() {
+                if f >= level + RING as u32 {
+                    break;
+                }
+                deferred.pop();
+                open.buckets[f as usize % RING].push(entry);
+                pending += 1;
+            }
             let slot = level as usize % RING;
             while let Some(entry) = open.buckets[slot].pop() {
                 pending -= 1;
@@ -277,6 +288,15 @@ impl GridHeuristic {
     /// Whether padded cell `i` is blocked, deciding it from the distance map if not known.
     #[inline]
     fn is_blocked(&mut self, dm: &DistanceMap, i: usize) -> bool {
+        match self.g[i] {
+            UNKNOWN => self.decide(dm, i),
+            v => v == BLOCKED,
+        }
+    }
+
+    /// Decides padded cell `i` (and the undecided cells of its row in the same 64 map
+    /// columns) from the map; whether it is blocked.
+    fn decide(&mut self, dm: &DistanceMap, i: usize) -> bool {
         let coarse = Coarse {
             stride: self.stride,
             width: self.width,
@@ -284,10 +304,7 @@ impl GridHeuristic {
             limit: self.limit,
             disk: self.disk.as_ref(),
         };
-        match self.g[i] {
-            UNKNOWN => coarse.decide(&mut self.g, dm, i),
-            v => v == BLOCKED,
-        }
+        coarse.decide(&mut self.g, dm, i)
     }
 
     /// Keeps the blocked flags that still hold for this map, body and grid.
@@ -342,6 +359,15 @@ impl GridHeuristic {
         for w in windows {
             self.forget(w.x0 / f, w.x1.div_ceil(f), w.y0 / f, w.y1.div_ceil(f));
         }
+    }
+
+    /// The coarse cell (unpadded) nearest to `start`: the lazy search's A* target.
+    fn target_of(&self, start: (f64, f64)) -> (usize, usize) {
+        let clamp = |v: f64, n: usize| (v.max(0.0) as usize).min(n - 1);
+        (
+            clamp((start.0 - self.origin_x) / self.cell, self.width),
+            clamp((start.1 - self.origin_y) / self.cell, self.height),
+        )
     }
 
     /// Padded index of the coarse cell holding (x, y), if inside the grid.
@@ -418,75 +444,7 @@ impl Open<'_> {
     }
 }
 
-/// What deciding a coarse cell's blocked flag needs.
-#[derive(Clone, Copy)]
-struct Coarse<'a> {
-    stride: usize,
-    /// Coarse cells per row (without the border).
-    width: usize,
-    factor: usize,
-    limit: f64,
-    /// The occupancy test equal to `limit` (`None`: the distance table's values).
-    disk: Option<&'a Disk>,
-}
-
-impl Coarse<'_> {
-    /// Decides whether padded cell `i` is blocked (and the other undecided cells of its
-    /// row that start in the same 64 map columns), records it in `g` and returns it.
-    #[cold]
-    fn decide(self, g: &mut [u32], dm: &DistanceMap, i: usize) -> bool {
-        let f = self.factor;
-        let Some(disk) = self.disk.filter(|_| f <= 64) else {
-            return self.decide_by_distance(g, dm, i);
-        };
-        let (cx, cy) = (i % self.stride - 1, i / self.stride - 1);
-        let t = (cx * f) >> 6;
-        let first = (t * 64).div_ceil(f);
-        let last = ((t * 64 + 63) / f).min(self.width - 1);
-        let two_words = (last + 1) * f > (t + 1) * 64;
-        // Bit x: some map cell in column 64 t + x of these rows is free.
-        let mut free = 0u128;
-        for y in cy * f..(cy * f + f).min(dm.height) {
-            let (y, t) = (y as isize, t as isize);
-            free |= u128::from(!disk.blocked_word(dm, y, t));
-            if two_words {
-                free |= u128::from(!disk.blocked_word(dm, y, t + 1)) << 64;
-            }
-        }
-        let row = (cy + 1) * self.stride + 1;
-        for c in first..=last {
-            if g[row + c] == UNKNOWN {
-                let a = c * f - t * 64;
-                let cells = ((1u128 << f) - 1) << a;
-                g[row + c] = if free & cells != 0 {
-                    UNREACHED
-                } else {
-                    BLOCKED
-                };
-            }
-        }
-        g[i] == BLOCKED
-    }
-
-    /// [`Coarse::decide`] for cell `i` alone, from the distance table.
-    fn decide_by_distance(self, g: &mut [u32], dm: &DistanceMap, i: usize) -> bool {
-        // For any robot centre q in a map cell c and an occupied cell o (equal squares),
-        // the farthest q is from o's square is exactly |c - o|: the far corner of c is
-        // half a cell farther, o's near edge half a cell nearer, on each axis. So a centre
-        // distance under r_in puts o's square inside the inscribed circle of every pose
-        // in c: c is blocked for sure. (Subtracting half a diagonal here, as before,
-        // left narrow holes in a detected wall open to the heuristic that the body
-        // cannot pass, and the search flooded the space before them.) The 1e-6 absorbs
-        // the f32 rounding of the stored distances.
-        let (cx, cy) = (i % self.stride - 1, i / self.stride - 1);
-        let f = self.factor;
-        let (x0, y0) = (cx * f, cy * f);
-        let (x1, y1) = ((x0 + f).min(dm.width), (y0 + f).min(dm.height));
-        let free = (y0..y1).any(|y| (x0..x1).any(|x| f64::from(dm.dist_at(x, y)) >= self.limit));
-        g[i] = if free { UNREACHED } else { BLOCKED };
-        !free
-    }
-}
-
+mod coarse;
+mod repair;
 #[cfg(test)]
 mod tests;

@@ -94,8 +94,8 @@ fn lazy_queries_equal_the_whole_search() {
 }
 
 /// A request to the same goal resumes the lazy search the last one left (another start,
-/// the same distances, its closed cells kept); a map change, another goal cell or body
-/// starts afresh.
+/// the same distances, its closed cells kept); another goal cell, another body or a new
+/// map geometry starts afresh.
 #[test]
 fn a_resumed_search_answers_as_a_fresh_one() {
     let mut g = GridMap::new_free(0.0, 0.0, 0.05, 30.0, 20.0).unwrap();
@@ -154,9 +154,94 @@ fn a_resumed_search_answers_as_a_fresh_one() {
     lazy.complete(&dm);
     assert!(lazy.begin(&dm, 0.25, 0.1, (goal, other), false));
     assert_eq!(lazy.settled, 0);
+    // A map change is repaired (the next test); a change it cannot follow (the map
+    // rebuilt: another geometry) starts afresh.
     lazy.complete(&dm);
-    g.set(CellIndex { ix: 0, iy: 0 }, OCCUPIED_STATIC);
-    dm.ensure(&g.view());
-    assert!(lazy.begin(&dm, 0.25, 0.1, (goal, other), false));
+    let mut wider = GridMap::new_free(0.0, 0.0, 0.05, 31.0, 20.0).unwrap();
+    wider.set(CellIndex { ix: 0, iy: 0 }, OCCUPIED_STATIC);
+    dm.ensure(&wider.view());
+    let _ = lazy.begin(&dm, 0.25, 0.1, (goal, other), false);
     assert_eq!(lazy.settled, 0);
+}
+
+/// A request to the same goal after map changes repairs the lazy search rather than
+/// flooding again: walls added near and far, then taken away again, every answer that of
+/// a flood of the changed map, and the closed cells counted as a flood would.
+#[test]
+fn a_repaired_search_answers_as_a_flood_of_the_changed_map() {
+    use aisle_geometry::FREE;
+    let mut g = GridMap::new_free(0.0, 0.0, 0.05, 30.0, 20.0).unwrap();
+    let (w, h) = (g.view().width as i64, g.view().height as i64);
+    let mut next = crate::tests::stream(0x6a09_e667_f3bc_c908);
+    for _ in 0..50 {
+        let (x0, y0, len) = (next(w), next(h), 10 + next(120));
+        for k in 0..len {
+            g.set(CellIndex { ix: x0, iy: y0 + k }, OCCUPIED_STATIC);
+        }
+    }
+    let point = |k: i64| {
+        (
+            0.1 + k as f64 * 0.0337 % 29.8,
+            0.1 + k as f64 * 0.0713 % 19.8,
+        )
+    };
+    let mut dm = DistanceMap::default();
+    dm.force_lazy = true;
+    dm.ensure(&g.view());
+    let (mut whole, mut lazy) = (GridHeuristic::default(), GridHeuristic::default());
+    let goal = loop {
+        let goal = point(next(100_000));
+        if whole.begin(&dm, 0.3, 0.1, (goal, goal), true) {
+            break goal;
+        }
+    };
+    let (mut repaired, mut cut, mut compared, mut walls) = (0, 0, 0, Vec::new());
+    for round in 0..16 {
+        let start = point(next(100_000));
+        if round > 0 {
+            // Add a wall (odd rounds take the last one away again): cells blocked and
+            // freed, sometimes near the goal, sometimes far.
+            if round % 2 == 1 || walls.is_empty() {
+                let (x0, y0) = (next(w - 60), next(h));
+                walls.push((x0, y0));
+                for k in 0..60 {
+                    g.set(CellIndex { ix: x0 + k, iy: y0 }, OCCUPIED_STATIC);
+                }
+            } else if let Some((x0, y0)) = walls.pop() {
+                for k in 0..60 {
+                    g.set(CellIndex { ix: x0 + k, iy: y0 }, FREE);
+                }
+            }
+            dm.ensure(&g.view());
+        }
+        let ok = whole.begin(&dm, 0.3, 0.1, (goal, start), true);
+        let reachable = whole.settled;
+        let before = lazy.settled;
+        if !lazy.begin(&dm, 0.3, 0.1, (goal, start), false) {
+            assert!(!ok, "round {round}");
+            continue;
+        }
+        assert!(ok, "round {round}");
+        // Repaired (or resumed): the kept cells stay counted.
+        repaired += usize::from(round > 0 && lazy.settled > 0);
+        // Cut back where the change reached, not emptied.
+        cut += usize::from(round > 0 && lazy.settled > 0 && lazy.settled < before);
+        for (x, y) in std::iter::once(start).chain((0..400).map(|_| point(next(100_000)))) {
+            let a = whole.metres(&dm, x, y);
+            assert_eq!(
+                a.map(f64::to_bits),
+                lazy.metres(&dm, x, y).map(f64::to_bits),
+                "round {round}"
+            );
+            compared += 1;
+        }
+        if round % 4 == 3 {
+            lazy.complete(&dm);
+            assert_eq!(lazy.settled, reachable, "round {round}");
+        }
+    }
+    assert!(
+        repaired >= 10 && cut >= 4 && compared > 5000,
+        "{repaired} {cut} {compared}"
+    );
 }

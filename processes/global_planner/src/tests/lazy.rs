@@ -101,11 +101,12 @@ fn compare_on_seed(cfg: &PlannerConfig, budget: u32, cpm: f64) -> (usize, usize)
     (fewer_cells, spent)
 }
 
-/// Replans to the same goal from other starts (the lazy planner resumes its heuristic's
-/// search, the eager one searches whole each time): the same paths and counters.
+/// Replans to the same goal from other starts, with detections added between some of
+/// them (the lazy planner resumes or repairs its heuristic's search, the eager one
+/// searches whole each time): the same paths and counters.
 #[test]
 fn replans_to_one_goal_plan_the_same_paths_as_eager_ones() {
-    let map: GridMap = seed_map::seed_map(10.0);
+    let mut map: GridMap = seed_map::seed_map(10.0);
     let reqs: Vec<PlanRequest> = seed_map::seed_segments().iter().map(request).collect();
     let cfg = PlannerConfig::default();
     let (mut eager, mut lazy) = (
@@ -122,6 +123,12 @@ fn replans_to_one_goal_plan_the_same_paths_as_eager_ones() {
                 margin: r.margin,
                 ..*r
             };
+            if j % 3 == 2 {
+                // A detection somewhere in the hall.
+                let k = f64::from((7 * i + 3 * j) as u32 % 13);
+                let (x, y) = (-3.0 + 0.6 * k, 1.0 + 1.7 * k);
+                rasterise(&mut map, &[Rect::centred(x, y, 0.3, 0.3)]);
+            }
             let (a, b) = (
                 eager.plan(&replan, &map.view()),
                 lazy.plan(&replan, &map.view()),
