@@ -99,11 +99,8 @@ impl GridHeuristic {
         eager: bool,
     ) -> bool {
         let f = ((cell_size / dm.resolution).round() as usize).max(1);
-        if !eager && self.resumable(dm, r_in, f, goal) {
-            return true;
-        }
-        if !eager && self.repairable(dm, r_in, f, goal) {
-            return self.repair(dm, start);
+        if !eager && self.continuable(dm, r_in, f, goal) {
+            return self.continue_search(dm, start);
         }
         self.lazy_goal = None;
         if self.eager_last {

@@ -298,22 +298,16 @@ fn output_path(
     }
     // Every stretch the smoothing kept passed this very sweep as it stands; the rest (the
     // traced motions, checked by the search's stricter checker) is swept here.
+    // Stretches share their end poses: each gap runs from the last pose of one checked
+    // stretch to the first of the next.
+    let probes = &mut stats.collision_probes;
     let mut from = 0;
     let mut rest_ok = true;
-    for r in checked
-        .iter()
-        .chain(std::iter::once(&(path.len()..path.len())))
-    {
-        // Stretches share their end poses: sweep from the last checked pose to the next.
-        let upto = (r.start + 1).min(path.len());
-        if upto > from + 1 {
-            rest_ok &= sweep_ok(&path[from..upto], &mut stats.collision_probes);
-        }
-        from = from.max(r.end.saturating_sub(1));
-        if !rest_ok {
-            break;
-        }
+    for r in checked.iter() {
+        rest_ok = rest_ok && sweep_ok(&path[from..=r.start], probes);
+        from = r.end - 1;
     }
+    rest_ok = rest_ok && sweep_ok(&path[from..], probes);
     if !rest_ok {
         if !stats.smoothed || !sweep_ok(&buf.raw, &mut stats.collision_probes) {
             return Err(PlanErrorKind::ValidationFailed);

@@ -2,8 +2,8 @@
 //! body and grid: as it stands when the map has not changed, and repaired when it has.
 //!
 //! A repair re-decides the blocked flags the changed cells reach (within the inscribed
-//! radius) and compares them with those the search used. No flip: the search stands. Otherwise a
-//! distance stays exact below a bound: a cell newly blocked at distance d lies on no
+//! radius) and compares them with those the search used. No flip: the search stands.
+//! Otherwise a distance stays exact below a bound: a cell newly blocked at distance d lies on no
 //! shortest path to a cell nearer than d, and a newly free cell u gives no cell nearer
 //! than its octile distance from the goal a shorter way. The closed cells below the
 //! least such bound are kept, everything else the search reached is forgotten, and the
@@ -17,44 +17,32 @@ use crate::distance_map::DistanceMap;
 use std::cmp::Reverse;
 
 impl GridHeuristic {
-    /// Whether the last request's lazy search serves this one as it stands: the same
-    /// goal cell, body and grid, and no map change since. Every cell it closed holds its
-    /// exact distance whichever start it was aimed at (the octile estimate is consistent
-    /// towards any target), so resuming it answers every query as a fresh search would;
-    /// only the order of the cells it still closes follows the old start.
-    pub(super) fn resumable(
+    /// Whether the last request's lazy search can serve this one: the same goal cell,
+    /// body and grid, and the map changes since it was last brought up to date known
+    /// (none, or still in the distance map's log).
+    pub(super) fn continuable(
         &self,
         dm: &DistanceMap,
         r_in: f64,
         f: usize,
         goal: (f64, f64),
     ) -> bool {
-        self.same_search(dm, r_in, f, goal) && self.seen_generation == dm.generation
-    }
-
-    /// Whether it serves after a repair: the same goal cell, body and grid, and the map
-    /// changes since it was last brought up to date still known.
-    pub(super) fn repairable(
-        &self,
-        dm: &DistanceMap,
-        r_in: f64,
-        f: usize,
-        goal: (f64, f64),
-    ) -> bool {
-        self.same_search(dm, r_in, f, goal) && dm.changes_since(self.seen_generation).is_some()
-    }
-
-    fn same_search(&self, dm: &DistanceMap, r_in: f64, f: usize, goal: (f64, f64)) -> bool {
         let Some(gi) = self.lazy_goal else {
             return false;
         };
         self.key == Some((geometry_of(dm), r_in.to_bits(), f))
             && self.index_of(goal.0, goal.1) == Some(gi)
+            && (self.seen_generation == dm.generation
+                || dm.changes_since(self.seen_generation).is_some())
     }
 
-    /// Brings the search to the changed map, aimed at `start` (see the module); false
-    /// when the goal's own cell is blocked now.
-    pub(super) fn repair(&mut self, dm: &DistanceMap, start: (f64, f64)) -> bool {
+    /// Continues the search for a request aimed at `start`, repaired to the changed map
+    /// if the map changed (see the module); false when the goal's own cell is blocked
+    /// now. Unchanged, every cell it closed holds its exact distance whichever start it
+    /// was aimed at (the octile estimate is consistent towards any target), so it goes
+    /// on as it stands; only the order of the cells it still closes follows the old
+    /// start.
+    pub(super) fn continue_search(&mut self, dm: &DistanceMap, start: (f64, f64)) -> bool {
         let Some(gi) = self.lazy_goal else {
             return false;
         };
@@ -84,7 +72,10 @@ impl GridHeuristic {
         // cells: the changed cells' window grown by that much holds every flag that can
         // flip.
         let reach = (self.limit / dm.resolution).ceil() as usize + 1;
-        if let Some(changes) = dm.cell_changes_since(self.seen_generation) {
+        let changed = (self.seen_generation != dm.generation)
+            .then(|| dm.cell_changes_since(self.seen_generation))
+            .flatten();
+        if let Some(changes) = changed {
             for w in changes.map(|w| w.grown(reach, reach, dm.width, dm.height)) {
                 for cy in w.y0 / f..w.y1.div_ceil(f).min(self.height) {
                     for cx in w.x0 / f..w.x1.div_ceil(f).min(self.width) {
