@@ -91,13 +91,9 @@ impl GeneralCaster {
         hit_floor: bool,
         out: &mut [[f32; 3]],
     ) -> usize {
-        if Arc::get_mut(&mut self.placement).is_none() {
-            // Only a helper that ended while holding it could keep a share.
-            self.placement = Arc::new((*self.placement).clone());
-        }
-        if let Some(p) = Arc::get_mut(&mut self.placement) {
-            p.place(world, sensor, hit_floor, &mut self.near);
-        }
+        // The helper has given its share back by now (only one that ended while holding
+        // it could keep one, and then this copies).
+        Arc::make_mut(&mut self.placement).place(world, sensor, hit_floor, &mut self.near);
         let (rows, cols) = (
             self.placement.pattern.rows(),
             self.placement.pattern.columns(),
