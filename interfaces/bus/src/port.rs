@@ -279,13 +279,24 @@ impl<M: Message> Subscriber<M> {
             if elapsed >= timeout {
                 return Ok((WaitOutcome::TimedOut, None));
             }
-            let slice = (timeout - elapsed).min(WAIT_SLICE);
+            let slice = wait_slice(timeout - elapsed);
             // An interrupted wait (EINTR from a signal) is not an error: the loop
             // re-checks the stop flag.
             let _ = self.listener.timed_wait(|_| {}, slice);
             on_slice();
         }
     }
+}
+
+/// How long one sleep of a wait lasts when `remaining` is left: at most [`WAIT_SLICE`],
+/// and never under a millisecond. The listener sleeps with a socket receive timeout
+/// (`SO_RCVTIMEO`, whole microseconds), and a timeout that rounds to zero makes it
+/// block until a notification comes, which may be never: a `replay --check` hung for
+/// ten minutes that way, its listener in a receive with no timeout, left by a wait with
+/// less than a microsecond to go. Overshooting a deadline by under 1 ms
+/// is harmless.
+fn wait_slice(remaining: Duration) -> Duration {
+    remaining.clamp(Duration::from_millis(1), WAIT_SLICE)
 }
 
 /// Opens (or creates) the publish/subscribe half of `service` with the QoS every process
@@ -328,4 +339,24 @@ pub(crate) fn event_service(
         .max_nodes(SERVICE_SETTINGS.max_nodes)
         .open_or_create()
         .map_err(|e| BusError::service(service, e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_wait_never_sleeps_less_than_a_millisecond_nor_more_than_a_slice() {
+        for ns in [0, 1, 300, 999, 1_000, 999_999] {
+            assert_eq!(
+                wait_slice(Duration::from_nanos(ns)),
+                Duration::from_millis(1)
+            );
+        }
+        assert_eq!(
+            wait_slice(Duration::from_millis(7)),
+            Duration::from_millis(7)
+        );
+        assert_eq!(wait_slice(Duration::from_secs(60)), WAIT_SLICE);
+    }
 }
