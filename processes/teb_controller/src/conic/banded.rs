@@ -31,35 +31,58 @@ impl Banded {
     }
 
     /// Adds `v` to entries (i, j) and (j, i); |i - j| must be within the band.
-    #[inline]
+    #[cfg(test)]
     pub fn add(&mut self, i: usize, j: usize, v: f64) {
+        let at = self.offset(i, j);
+        self.a[at] += v;
+    }
+
+    /// Where entries (i, j) and (j, i) are stored, for [`Banded::add_at`]; |i - j| must
+    /// be within the band.
+    #[inline]
+    pub fn offset(&self, i: usize, j: usize) -> usize {
         let (i, j) = if i >= j { (i, j) } else { (j, i) };
         debug_assert!(i - j <= self.bw);
-        self.a[i * (self.bw + 1) + (i - j)] += v;
+        i * (self.bw + 1) + (i - j)
+    }
+
+    /// Adds `v` to the entries stored at `offset`.
+    #[inline]
+    pub fn add_at(&mut self, offset: usize, v: f64) {
+        self.a[offset] += v;
     }
 
     /// Factors in place as L D L'. False when a pivot is not positive (the matrix is
     /// not positive definite to working precision).
     pub fn factor(&mut self) -> bool {
         let (n, bw, w) = (self.n, self.bw, self.bw + 1);
+        let d = &mut self.d;
         for j in 0..n {
             let lo = j.saturating_sub(bw);
-            let mut dj = self.a[j * w];
-            for k in lo..j {
-                let l = self.a[j * w + (j - k)];
-                dj -= l * l * self.d[k];
+            // Row j (entry (j, j - t) at t) and the rows below it, which it updates.
+            let (head, below) = self.a.split_at_mut((j + 1) * w);
+            let row_j = &head[j * w..];
+            // Sums over k = lo..j in increasing k, so t = j - k runs backwards.
+            let mut dj = row_j[0];
+            for (l, dk) in row_j[1..=j - lo].iter().rev().zip(&d[lo..j]) {
+                dj -= l * l * dk;
             }
             if dj.is_nan() || dj <= 0.0 || dj.is_infinite() {
                 return false;
             }
-            self.d[j] = dj;
+            d[j] = dj;
             for i in j + 1..(j + w).min(n) {
-                let lo_i = i.saturating_sub(bw).max(lo);
-                let mut v = self.a[i * w + (i - j)];
-                for k in lo_i..j {
-                    v -= self.a[i * w + (i - k)] * self.a[j * w + (j - k)] * self.d[k];
+                let lo_i = i.saturating_sub(bw);
+                let row_i = &mut below[(i - j - 1) * w..(i - j) * w];
+                let mut v = row_i[i - j];
+                let pairs = row_i[i - j + 1..=i - lo_i]
+                    .iter()
+                    .rev()
+                    .zip(row_j[1..=j - lo_i].iter().rev());
+                for ((aik, ajk), dk) in pairs.zip(&d[lo_i..j]) {
+                    v -= aik * ajk * dk;
                 }
-                self.a[i * w + (i - j)] = v / dj;
+                row_i[i - j] = v / dj;
             }
         }
         true
@@ -69,10 +92,12 @@ impl Banded {
     pub fn solve(&self, b: &mut [f64]) {
         let (n, bw, w) = (self.n, self.bw, self.bw + 1);
         for i in 0..n {
+            let lo = i.saturating_sub(bw);
+            let row_i = &self.a[i * w..(i + 1) * w];
             let (done, rest) = b.split_at_mut(i);
             let mut v = rest[0];
-            for (k, bk) in done.iter().enumerate().skip(i.saturating_sub(bw)) {
-                v -= self.a[i * w + (i - k)] * bk;
+            for (l, bk) in row_i[1..=i - lo].iter().rev().zip(&done[lo..]) {
+                v -= l * bk;
             }
             rest[0] = v;
         }

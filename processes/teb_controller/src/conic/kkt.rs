@@ -17,6 +17,9 @@
 
 use super::banded::Banded;
 use super::data::Data;
+use super::pairs::Pairs;
+
+mod products;
 
 /// No position: the entry is the row's slack.
 const SLACK: usize = usize::MAX;
@@ -51,9 +54,17 @@ pub(super) struct Kkt {
     nb_pos: Vec<usize>,
     hcs: Vec<f64>,
     hss: Vec<f64>,
-    /// P's nonzeros as (position, position, value) and as (column, column, value).
+    /// P's nonzeros as (position, position, value), as (offset in the band, value) and
+    /// as (column, column, value).
     p_entries: Vec<(usize, usize, f64)>,
+    p_band: Vec<(usize, f64)>,
     p_cols: Vec<(usize, usize, f64)>,
+    /// Where the products of each row's and each cone's entries land in the band, and
+    /// those of each slack's neighbours (per slack, its pairs from `nb_pair_ptr`).
+    ray_pairs: Pairs,
+    cone_pairs: Pairs,
+    nb_pair_ptr: Vec<usize>,
+    nb_pairs: Vec<usize>,
     item_slack: Vec<usize>,
     counts: Vec<usize>,
     pos: Vec<usize>,
@@ -90,6 +101,7 @@ impl Kkt {
         }
         self.bandwidth = self.find_bandwidth();
         self.band.reset(nc, self.bandwidth);
+        self.find_offsets();
         self.scratch.clear();
         self.scratch.resize(nc, 0.0);
         true
@@ -119,6 +131,35 @@ impl Kkt {
             bw = bw.max(span(&self.nb_pos[self.nb_ptr[s]..self.nb_ptr[s + 1]]));
         }
         bw
+    }
+
+    /// The band offsets of P's entries, of the products within each row and cone, and
+    /// of the products of each slack's neighbours.
+    fn find_offsets(&mut self) {
+        let band = &self.band;
+        self.p_band.clear();
+        self.p_band.extend(
+            self.p_entries
+                .iter()
+                .map(|&(a, b, v)| (band.offset(a, b), v)),
+        );
+        self.ray_pairs
+            .build(&self.ray_ptr, &self.ray_pos, SLACK, band);
+        self.cone_pairs
+            .build(&self.cone_ptr, &self.cone_pos, SLACK, band);
+        self.nb_pair_ptr.clear();
+        self.nb_pairs.clear();
+        for s in 0..self.hss.len() {
+            self.nb_pair_ptr.push(self.nb_pairs.len());
+            let range = self.nb_ptr[s]..self.nb_ptr[s + 1];
+            for i in range.clone() {
+                for j in range.start..=i {
+                    self.nb_pairs
+                        .push(band.offset(self.nb_pos[i], self.nb_pos[j]));
+                }
+            }
+        }
+        self.nb_pair_ptr.push(self.nb_pairs.len());
     }
 
     /// The non-negative rows, each scaled to a largest coefficient of 1.
@@ -292,8 +333,8 @@ impl Kkt {
     /// positive definite.
     pub fn factor(&mut self, ray_d: &[f64], cone_m: &[[f64; 9]]) -> bool {
         self.band.clear();
-        for &(a, b, v) in &self.p_entries {
-            self.band.add(a, b, v);
+        for &(at, v) in &self.p_band {
+            self.band.add_at(at, v);
         }
         for i in 0..self.free_rays.len() {
             let r = self.free_rays[i];
@@ -323,11 +364,12 @@ impl Kkt {
                 self.hcs[k] = self.scratch[p];
                 self.scratch[p] = 0.0;
             }
+            let mut at = self.nb_pair_ptr[s];
             for i in range.clone() {
                 let f = self.hcs[i] / hss;
                 for j in range.start..=i {
-                    self.band
-                        .add(self.nb_pos[i], self.nb_pos[j], -f * self.hcs[j]);
+                    self.band.add_at(self.nb_pairs[at], -f * self.hcs[j]);
+                    at += 1;
                 }
             }
         }
@@ -352,11 +394,8 @@ impl Kkt {
                 }
                 continue;
             }
-            for b in lo..=a {
-                let pb = self.ray_pos[b];
-                if pb != SLACK {
-                    self.band.add(pa, pb, u * self.ray_val[b]);
-                }
+            for &(at, b) in self.ray_pairs.of(a) {
+                self.band.add_at(at as usize, u * self.ray_val[b as usize]);
             }
         }
     }
@@ -381,83 +420,9 @@ impl Kkt {
                 }
                 continue;
             }
-            for b in lo..=a {
-                let pb = self.cone_pos[b];
-                if pb != SLACK {
-                    self.band.add(pa, pb, dot(&u, &self.cone_val[b]));
-                }
-            }
-        }
-    }
-
-    /// Solves the factored system for `rhs` (columns in the caller's order) in place;
-    /// `work` has at least n_core entries.
-    pub fn solve(&self, rhs: &mut [f64], work: &mut [f64]) {
-        let nc = self.n_core;
-        for c in 0..nc {
-            work[self.pos[c]] = rhs[c];
-        }
-        for s in 0..self.hss.len() {
-            let f = rhs[nc + s] / self.hss[s];
-            for k in self.nb_ptr[s]..self.nb_ptr[s + 1] {
-                work[self.nb_pos[k]] -= self.hcs[k] * f;
-            }
-        }
-        self.band.solve(&mut work[..nc]);
-        for c in 0..nc {
-            rhs[c] = work[self.pos[c]];
-        }
-        for s in 0..self.hss.len() {
-            let mut v = rhs[nc + s];
-            for k in self.nb_ptr[s]..self.nb_ptr[s + 1] {
-                v -= self.hcs[k] * work[self.nb_pos[k]];
-            }
-            rhs[nc + s] = v / self.hss[s];
-        }
-    }
-
-    /// out += P x (columns in the caller's order).
-    pub fn add_px(&self, x: &[f64], out: &mut [f64]) {
-        for &(r, c, v) in &self.p_cols {
-            out[r] += v * x[c];
-            if r != c {
-                out[c] += v * x[r];
-            }
-        }
-    }
-
-    /// out += G x (out: one entry per row).
-    pub fn add_gx(&self, x: &[f64], out: &mut [f64]) {
-        for (r, o) in out[..self.n_ray].iter_mut().enumerate() {
-            let mut v = 0.0;
-            for k in self.ray_ptr[r]..self.ray_ptr[r + 1] {
-                v += self.ray_val[k] * x[self.ray_col[k]];
-            }
-            *o += v;
-        }
-        for b in 0..self.n_cone {
-            let o = self.n_ray + 3 * b;
-            for k in self.cone_ptr[b]..self.cone_ptr[b + 1] {
-                let (xc, g) = (x[self.cone_col[k]], &self.cone_val[k]);
-                out[o] += g[0] * xc;
-                out[o + 1] += g[1] * xc;
-                out[o + 2] += g[2] * xc;
-            }
-        }
-    }
-
-    /// out += G' y (out: one entry per column).
-    pub fn add_gty(&self, y: &[f64], out: &mut [f64]) {
-        for (r, &yr) in y[..self.n_ray].iter().enumerate() {
-            for k in self.ray_ptr[r]..self.ray_ptr[r + 1] {
-                out[self.ray_col[k]] += self.ray_val[k] * yr;
-            }
-        }
-        for b in 0..self.n_cone {
-            let o = self.n_ray + 3 * b;
-            for k in self.cone_ptr[b]..self.cone_ptr[b + 1] {
-                let g = &self.cone_val[k];
-                out[self.cone_col[k]] += g[0] * y[o] + g[1] * y[o + 1] + g[2] * y[o + 2];
+            for &(at, b) in self.cone_pairs.of(a) {
+                self.band
+                    .add_at(at as usize, dot(&u, &self.cone_val[b as usize]));
             }
         }
     }

@@ -14,6 +14,7 @@
 //! | `data.rs`   | the subproblem as the caller hands it over              |
 //! | `banded.rs` | the banded L D L' factorisation                         |
 //! | `kkt.rs`    | the rows, the slacks and the reduced Newton system      |
+//! | `pairs.rs`  | where each row's products land in the banded matrix     |
 //!
 //! The cost is scaled to unit size and the rows to a largest coefficient of 1, which
 //! leaves the minimiser as it is but starts the iterations near the central path (with
@@ -27,6 +28,7 @@ mod banded;
 mod cone;
 mod data;
 mod kkt;
+mod pairs;
 mod rays;
 #[cfg(test)]
 mod tests;
