@@ -142,9 +142,11 @@ impl Conic {
             for (x, dx) in self.x.iter_mut().zip(&self.dx) {
                 *x += alpha * dx;
             }
-            for r in 0..self.s.len() {
-                self.s[r] += alpha * self.ds[r];
-                self.z[r] += alpha * self.dz[r];
+            for (s, ds) in self.s.iter_mut().zip(&self.ds) {
+                *s += alpha * ds;
+            }
+            for (z, dz) in self.z.iter_mut().zip(&self.dz) {
+                *z += alpha * dz;
             }
         }
         false

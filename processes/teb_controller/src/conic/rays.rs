@@ -23,11 +23,13 @@ pub(super) fn scale(
     lambda: &mut [f64],
 ) -> bool {
     let mut ok = true;
-    for r in 0..s.len() {
-        ok &= s[r] > 0.0 && z[r] > 0.0;
-        w[r] = (s[r] / z[r]).sqrt();
-        d[r] = z[r] / s[r];
-        lambda[r] = (s[r] * z[r]).sqrt();
+    let out = w.iter_mut().zip(d.iter_mut()).zip(lambda.iter_mut());
+    for ((&s, &z), ((w, d), lambda)) in s.iter().zip(z).zip(out) {
+        // Without a branch per row: every row's three values are computed anyway.
+        ok &= (s > 0.0) & (z > 0.0);
+        *w = (s / z).sqrt();
+        *d = z / s;
+        *lambda = (s * z).sqrt();
     }
     ok
 }
@@ -58,11 +60,20 @@ pub(super) fn target(step: Step, lambda: &[f64], ds: &[f64], dz: &[f64], t: &mut
 
 /// The largest alpha (at most `cap`) with u + alpha d >= 0, u > 0.
 pub(super) fn step_length(u: &[f64], d: &[f64], cap: f64) -> f64 {
-    let mut alpha = cap;
-    for r in 0..u.len() {
-        if d[r] < 0.0 {
-            alpha = alpha.min(-u[r] / d[r]);
+    // The least of a set of quotients is the same whichever order it is taken in, so
+    // four running minima without a branch per row (whose sign is unpredictable) give
+    // the bits one loop gives.
+    let ratio = |u: f64, d: f64| if d < 0.0 { -u / d } else { f64::INFINITY };
+    let mut lanes = [cap; 4];
+    let (u4, d4) = (u.chunks_exact(4), d.chunks_exact(4));
+    let (u_rest, d_rest) = (u4.remainder(), d4.remainder());
+    for (uq, dq) in u4.zip(d4) {
+        for k in 0..4 {
+            lanes[k] = lanes[k].min(ratio(uq[k], dq[k]));
         }
     }
-    alpha
+    for (&u, &d) in u_rest.iter().zip(d_rest) {
+        lanes[0] = lanes[0].min(ratio(u, d));
+    }
+    lanes.into_iter().fold(cap, f64::min)
 }
