@@ -61,8 +61,8 @@ pub(super) struct Kkt {
     p_cols: Vec<(usize, usize, f64)>,
     /// Where the products of each row's and each cone's entries land in the band, and
     /// those of each slack's neighbours (per slack, its pairs from `nb_pair_ptr`).
-    ray_pairs: Pairs,
-    cone_pairs: Pairs,
+    ray_pairs: Pairs<f64>,
+    cone_pairs: Pairs<[f64; 3]>,
     nb_pair_ptr: Vec<usize>,
     nb_pairs: Vec<usize>,
     item_slack: Vec<usize>,
@@ -144,9 +144,9 @@ impl Kkt {
                 .map(|&(a, b, v)| (band.offset(a, b), v)),
         );
         self.ray_pairs
-            .build(&self.ray_ptr, &self.ray_pos, SLACK, band);
+            .build(&self.ray_ptr, &self.ray_pos, &self.ray_val, SLACK, band);
         self.cone_pairs
-            .build(&self.cone_ptr, &self.cone_pos, SLACK, band);
+            .build(&self.cone_ptr, &self.cone_pos, &self.cone_val, SLACK, band);
         self.nb_pair_ptr.clear();
         self.nb_pairs.clear();
         for s in 0..self.hss.len() {
@@ -394,8 +394,8 @@ impl Kkt {
                 }
                 continue;
             }
-            for &(at, b) in self.ray_pairs.of(a) {
-                self.band.add_at(at as usize, u * self.ray_val[b as usize]);
+            for &(at, g) in self.ray_pairs.of(a) {
+                self.band.add_at(at as usize, u * g);
             }
         }
     }
@@ -420,9 +420,8 @@ impl Kkt {
                 }
                 continue;
             }
-            for &(at, b) in self.cone_pairs.of(a) {
-                self.band
-                    .add_at(at as usize, dot(&u, &self.cone_val[b as usize]));
+            for (at, g) in self.cone_pairs.of(a) {
+                self.band.add_at(*at as usize, dot(&u, g));
             }
         }
     }
