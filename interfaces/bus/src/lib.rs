@@ -26,6 +26,7 @@ mod bus;
 pub mod clock;
 pub mod discovery;
 mod error;
+mod extent;
 mod hold;
 mod instance;
 mod mgmt_segment;

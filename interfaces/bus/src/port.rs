@@ -1,5 +1,6 @@
 //! Typed publish/subscribe ports, each paired with an event service of the same name.
 
+use crate::extent::Extents;
 use crate::{BusError, clock, signals};
 use aisle_messages::{Message, NodeKind, Qos, Topic};
 use iceoryx2::port::listener::Listener;
@@ -66,6 +67,8 @@ pub struct Publisher<M: Message> {
     notifier: Notifier<ipc::Service>,
     source: NodeKind,
     seq: u64,
+    /// What earlier messages left in each sample (see `extent.rs`).
+    extents: Extents,
 }
 
 impl<M: Message> Publisher<M> {
@@ -91,6 +94,7 @@ impl<M: Message> Publisher<M> {
             notifier,
             source,
             seq: 0,
+            extents: Extents::new(),
         })
     }
 
@@ -98,23 +102,33 @@ impl<M: Message> Publisher<M> {
         self.service
     }
 
-    /// Loans a sample, zero-fills it in shared memory, writes the header, lets `fill`
-    /// write the payload in place, sends it and wakes the subscribers. Returns the
-    /// sequence number of the message.
+    /// Loans a sample, zero-fills it in shared memory (only as far as earlier messages
+    /// wrote into it: the rest is zero already), writes the header, lets `fill` write the
+    /// payload in place, sends it and wakes the subscribers. `fill` must not write past
+    /// the message's [`Message::used_len`]. Returns the sequence number of the message.
     pub fn publish(&mut self, stamp: Stamp, fill: impl FnOnce(&mut M)) -> Result<u64, BusError> {
         let mut sample = self
             .port
             .loan_uninit()
             .map_err(|e| BusError::service(self.service, e))?;
-        // SAFETY: `M: ZeroedValid` guarantees all-zero bytes are a valid `M`; writing
-        // zeros over the whole sample initialises it without building it on the stack.
+        let size = std::mem::size_of::<M>();
+        let at = sample.payload_mut().as_mut_ptr();
+        let dirty = self.extents.dirty(at as usize, size).min(size);
+        // SAFETY: `M: ZeroedValid` guarantees all-zero bytes are a valid `M`. Past
+        // `dirty` the sample's bytes are zero already (the extents' invariant), so zeroing
+        // its first `dirty` bytes leaves all of it zero: initialised without building an
+        // `M` on the stack.
         let mut sample = unsafe {
-            sample.payload_mut().as_mut_ptr().write_bytes(0, 1);
+            (at as *mut u8).write_bytes(0, dirty);
             sample.assume_init()
         };
         self.seq += 1;
         let msg = sample.payload_mut();
         fill(msg);
+        let used = msg
+            .used_len()
+            .clamp(std::mem::size_of::<aisle_messages::Header>(), size);
+        self.extents.set(at as usize, used);
         let h = msg.header_mut();
         h.seq = self.seq;
         h.stamp_ns = stamp.stamp_ns;
@@ -158,6 +172,9 @@ impl<M: Message> Publisher<M> {
             .port
             .loan_uninit()
             .map_err(|e| BusError::service(self.service, e))?;
+        // A recorded payload is written whole.
+        let at = sample.payload_mut().as_mut_ptr() as usize;
+        self.extents.set(at, bytes.len());
         // SAFETY: the byte count equals size_of::<M>() and every bit pattern of the
         // numeric fields of an `M: ZeroedValid` is a valid value.
         let sample = unsafe {

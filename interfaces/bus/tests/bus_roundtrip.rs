@@ -70,6 +70,45 @@ fn a_large_message_arrives_intact_and_the_instance_leaves_nothing() {
 }
 
 #[test]
+fn a_smaller_message_in_a_used_sample_leaves_no_trace_of_the_larger_one() {
+    // The publisher clears only what earlier messages wrote into a sample (`extent.rs`):
+    // grids shrinking and growing again, through every sample of the pool, must each
+    // arrive with zeros past their own cells.
+    let inst = instance();
+    {
+        let (sup, _info) = Bus::create_instance(&inst, 3, TickMode::Lockstep).unwrap();
+        let sub = sup.subscriber(topics::LOCAL_MAP).unwrap();
+        let mut publ = sup.publisher(topics::LOCAL_MAP).unwrap();
+        let sides = [400usize, 30, 200, 7, 400, 1, 90, 0, 300, 12];
+        for (tick, &side) in (1u64..).zip(sides.iter().cycle().take(40)) {
+            let stamp = Stamp {
+                stamp_ns: tick,
+                tick,
+                tick_wall_ns: 0,
+            };
+            publ.publish(stamp, |m| {
+                m.width = side as u32;
+                m.height = side as u32;
+                m.version = tick;
+                m.cells[..side * side].fill(1 + (tick % 200) as u8);
+            })
+            .unwrap();
+            let (outcome, sample) = sub
+                .wait_for(Duration::from_secs(1), |m| m.header.tick == tick, || {})
+                .unwrap();
+            assert_eq!(outcome, WaitOutcome::Matched);
+            let m = sample.unwrap();
+            let used = side * side;
+            assert_eq!(m.version, tick);
+            assert!(m.cells[..used].iter().all(|&c| c == 1 + (tick % 200) as u8));
+            let stale = m.cells[used..].iter().position(|&c| c != 0);
+            assert_eq!(stale, None, "tick {tick}: a cell past {used} is not zero");
+        }
+    }
+    inst.remove().unwrap();
+}
+
+#[test]
 fn a_wait_without_data_times_out() {
     let inst = instance();
     {

@@ -181,6 +181,8 @@ message!(
         _pad: u32,
         points: [[f32; 3]; MAX_CLOUD_POINTS],
     }
+    used |m: &PointCloud| core::mem::offset_of!(PointCloud, points)
+        + 12 * (m.rows as usize * m.cols as usize).min(MAX_CLOUD_POINTS)
 );
 
 message!(
@@ -199,6 +201,8 @@ message!(
         version: u64,
         cells: [u8; MAX_GRID_CELLS],
     }
+    used |m: &OccupancyGrid| core::mem::offset_of!(OccupancyGrid, cells)
+        + (m.width as usize * m.height as usize).min(MAX_GRID_CELLS)
 );
 
 message!(

@@ -39,13 +39,14 @@ macro_rules! layout_struct {
 #[macro_export]
 #[doc(hidden)]
 macro_rules! message {
-    ($(#[$m:meta])* $name:ident = $tn:tt size $size:literal { $($(#[$fm:meta])* $f:ident : $t:ty),* $(,)? }) => {
+    ($(#[$m:meta])* $name:ident = $tn:tt size $size:literal { $($(#[$fm:meta])* $f:ident : $t:ty),* $(,)? } $(used $used:expr)?) => {
         $crate::layout_struct!($(#[$m])* $name = $tn { $($(#[$fm])* $f : $t),* });
         impl $crate::Message for $name {
             const TYPE_NAME: &'static str = $tn;
             const FIELDS: &'static [$crate::FieldLayout] = $name::FIELDS;
             fn header(&self) -> &$crate::Header { &self.header }
             fn header_mut(&mut self) -> &mut $crate::Header { &mut self.header }
+            $(fn used_len(&self) -> usize { ($used)(self) })?
         }
         const _: () = assert!(core::mem::offset_of!($name, header) == 0);
         const _: () = assert!(core::mem::size_of::<$name>() == $size, concat!("size of ", stringify!($name), " changed: update the size and the version"));

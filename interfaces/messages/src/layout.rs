@@ -32,6 +32,14 @@ pub trait Message:
 
     fn header(&self) -> &crate::Header;
     fn header_mut(&mut self) -> &mut crate::Header;
+
+    /// How many leading bytes of this value its fields use (at least the header): a
+    /// publisher keeps every byte after them zero, so it clears only what an earlier
+    /// message left in a sample instead of the whole capacity. The whole value unless
+    /// the type says less (a grid's or a cloud's unused capacity).
+    fn used_len(&self) -> usize {
+        core::mem::size_of::<Self>()
+    }
 }
 
 /// (type name, size, align, fields) for every message, in catalogue order.

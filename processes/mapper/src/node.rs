@@ -188,7 +188,8 @@ impl MapperStage {
         io.publish(topics::LOCAL_MAP, stamp, |m| {
             m.kind = GridKind::Local as u32;
             m.version = version;
-            match mapper.local_map_into((robot.x, robot.y), &mut m.cells[..side * side]) {
+            let cells = &mut m.cells[..side * side];
+            match mapper.local_map_into((robot.x, robot.y), cells) {
                 Ok(info) => {
                     m.width = info.width as u32;
                     m.height = info.height as u32;
@@ -196,7 +197,11 @@ impl MapperStage {
                     m.origin_y = info.origin_y;
                     m.resolution = info.resolution;
                 }
-                Err(e) => failure = Some(e),
+                Err(e) => {
+                    // A 0 x 0 grid uses none of its cells: the bus keeps them zero.
+                    cells.fill(0);
+                    failure = Some(e);
+                }
             }
         })?;
         match failure {
