@@ -112,9 +112,7 @@ impl Conic {
             return false;
         }
         self.size(d);
-        if !self.start(d) {
-            return false;
-        }
+        self.start();
         let degree = (self.kkt.n_ray + self.kkt.n_cone) as f64;
         while self.iterations < set.max_iter {
             if self.converged(d.n, set) {
@@ -188,40 +186,28 @@ impl Conic {
         self.cone_m.resize(cones, [0.0; 9]);
     }
 
-    /// A starting point: the least-squares one of CVXOPT and clarabel (solve with
-    /// W = I: (P + G'G) x = -q + G'h, s = h - G x, z = -s), s and z then shifted into
-    /// the interior, the rays together and each cone on its own.
-    fn start(&mut self, d: &Data) -> bool {
-        self.cone_m
-            .iter_mut()
-            .for_each(|m| *m = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
-        if !self.kkt.factor(&self.ray_d, &self.cone_m) {
-            return false;
-        }
-        self.dx.iter_mut().for_each(|v| *v = 0.0);
-        self.kkt.add_gty(&self.h, &mut self.dx);
-        for (v, q) in self.dx.iter_mut().zip(&self.q) {
-            *v -= q;
-        }
-        self.kkt.solve(&mut self.dx, &mut self.work);
-        self.x.copy_from_slice(&self.dx[..d.n]);
-        self.tmp.iter_mut().for_each(|v| *v = 0.0);
-        self.kkt.add_gx(&self.x, &mut self.tmp);
-        for r in 0..self.s.len() {
-            self.s[r] = self.h[r] - self.tmp[r];
-            self.z[r] = -self.s[r];
-        }
+    /// A starting point: x = 0 (the band as it is: a subproblem's columns are steps
+    /// from it), s = h shifted into the interior (the rays together, each cone on its
+    /// own) and z = e, the cones' identity. The least-squares start of CVXOPT and
+    /// clarabel ((P + G'G) x = -q + G'h) cost a factorisation and, with the L1 weights
+    /// two orders above the quadratic terms, put every slack column near -1 and the
+    /// first gap five orders above the last: 16.9 iterations a subproblem on a seed
+    /// mission's steps against 15.8 from here.
+    fn start(&mut self) {
+        self.x.iter_mut().for_each(|v| *v = 0.0);
+        self.s.copy_from_slice(&self.h);
         let rays = self.kkt.n_ray;
-        for v in [&mut self.s, &mut self.z] {
-            rays::shift_into_interior(&mut v[..rays]);
-            for c in v[rays..].chunks_exact_mut(3) {
-                let off = violation(3, c);
-                if off > -1e-8 {
-                    c[0] += 1.0 + off;
-                }
+        rays::shift_into_interior(&mut self.s[..rays]);
+        for c in self.s[rays..].chunks_exact_mut(3) {
+            let off = violation(3, c);
+            if off > -1e-8 {
+                c[0] += 1.0 + off;
             }
         }
-        true
+        self.z[..rays].iter_mut().for_each(|v| *v = 1.0);
+        for c in self.z[rays..].chunks_exact_mut(3) {
+            c.copy_from_slice(&[1.0, 0.0, 0.0]);
+        }
     }
 
     /// Residuals r_x = Px + q + G'z and r_z = Gx + s - h; whether clarabel's stopping

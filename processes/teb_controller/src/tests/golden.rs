@@ -382,20 +382,20 @@ fn digests() -> Vec<(&'static str, u64)> {
 
 /// Recorded on the code before objective.rs was split out of scp.rs (commit f3621e2).
 const RECORDED: &[(&str, u64)] = &[
-    ("free_corridor", 0x3a742a64293b201b),
-    ("pallet_ahead", 0x0e9dc6b9b4d85e29),
-    ("pallet_ahead_homotopy", 0x166a7af8db724dd8),
-    ("rack_2.5m_aisle", 0xb6b50cf6a0efbc8e),
-    ("curve_r3", 0xe954a4f02e3de316),
-    ("loop_box_on_path", 0x9975ca1277890c7b),
-    ("loop_homotopy_pallet", 0x6dfb5d9b45298bef),
-    ("loop_rack_aisle", 0xdbef56dd6a6ba41b),
-    ("loop_rotate", 0x74e40ae1473356c3),
-    ("loop_cusp", 0xf07880380c434350),
-    ("loop_short_of_rotation", 0x36b6dfe5432fb48a),
-    ("loop_final_rotation", 0xe7bfef695deb3e8f),
-    ("loop_tight_arc", 0xdb19f33ef7971e1b),
-    ("single_steps", 0x2164b8bf2fccf1b7),
+    ("free_corridor", 0x1efe9cec14eaedf3),
+    ("pallet_ahead", 0x434dfc6e561ea78f),
+    ("pallet_ahead_homotopy", 0x04e13269b4379a14),
+    ("rack_2.5m_aisle", 0xf7ab90889055c2ef),
+    ("curve_r3", 0x1fa4c202826513a5),
+    ("loop_box_on_path", 0x8f39ba7f4caa09a1),
+    ("loop_homotopy_pallet", 0xb72e27d5e1f768e4),
+    ("loop_rack_aisle", 0x8440b07266768dc2),
+    ("loop_rotate", 0x1f845ab141c15b0f),
+    ("loop_cusp", 0xa7e67d1d20e464c6),
+    ("loop_short_of_rotation", 0xf1b003dd496d2a7f),
+    ("loop_final_rotation", 0x5638b5f3d0580c10),
+    ("loop_tight_arc", 0x516932ddf5aeccd3),
+    ("single_steps", 0x40d5aea685c9b378),
 ];
 
 #[test]
