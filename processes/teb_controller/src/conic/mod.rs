@@ -81,6 +81,10 @@ pub(crate) struct Conic {
     t: Vec<f64>,
     tmp: Vec<f64>,
     work: Vec<f64>,
+    /// P x of the current iterate.
+    px: Vec<f64>,
+    /// Whether `rx` and `rz` were computed from the iterate, not carried.
+    fresh: bool,
     /// Solution of the last successful solve.
     pub x: Vec<f64>,
     /// Interior-point iterations of the last solve.
@@ -113,6 +117,7 @@ impl Conic {
         }
         self.size(d);
         self.start();
+        self.fresh = false;
         let degree = (self.kkt.n_ray + self.kkt.n_cone) as f64;
         while self.iterations < set.max_iter {
             if self.converged(d.n, set) {
@@ -146,6 +151,13 @@ impl Conic {
             for (z, dz) in self.z.iter_mut().zip(&self.dz) {
                 *z += alpha * dz;
             }
+            // The corrector's direction solves P dx + G'dz = -keep r_x and
+            // G dx + ds = -keep r_z, so a step of alpha scales both residuals by
+            // 1 - alpha keep: carried instead of two more products with G.
+            let shrink = 1.0 - alpha * (1.0 - sigma);
+            self.rx.iter_mut().for_each(|v| *v *= shrink);
+            self.rz.iter_mut().for_each(|v| *v *= shrink);
+            self.fresh = false;
         }
         false
     }
@@ -158,7 +170,13 @@ impl Conic {
         self.h.clear();
         self.h
             .extend((0..m).map(|r| self.kkt.row_scale[r] * d.h(r)));
-        for v in [&mut self.x, &mut self.rx, &mut self.dx, &mut self.work] {
+        for v in [
+            &mut self.x,
+            &mut self.rx,
+            &mut self.dx,
+            &mut self.work,
+            &mut self.px,
+        ] {
             v.clear();
             v.resize(n, 0.0);
         }
@@ -210,16 +228,9 @@ impl Conic {
         }
     }
 
-    /// Residuals r_x = Px + q + G'z and r_z = Gx + s - h; whether clarabel's stopping
-    /// rule holds on the caller's objective (feasibility relative to the data and the
-    /// iterate, the gap absolute or relative to the objective).
-    fn converged(&mut self, n: usize, set: &Settings) -> bool {
-        let c = self.cost_scale;
-        self.rx.iter_mut().for_each(|v| *v = 0.0);
-        self.kkt.add_px(&self.x, &mut self.rx);
-        let x_px = dot(&self.x, &self.rx);
-        let q_x = dot(&self.x, &self.q);
-        let px_norm = inf_norm(&self.rx);
+    /// Residuals r_x = Px + q + G'z and r_z = Gx + s - h, from scratch.
+    fn residuals(&mut self) {
+        self.rx.copy_from_slice(&self.px);
         self.kkt.add_gty(&self.z, &mut self.rx);
         for (r, q) in self.rx.iter_mut().zip(&self.q) {
             *r += q;
@@ -229,6 +240,32 @@ impl Conic {
         for r in 0..self.rz.len() {
             self.rz[r] += self.s[r] - self.h[r];
         }
+        self.fresh = true;
+    }
+
+    /// Whether clarabel's stopping rule holds on the caller's objective (feasibility
+    /// relative to the data and the iterate, the gap absolute or relative to the
+    /// objective). Between iterations the residuals are carried (`solve`); when the
+    /// carried ones pass, they are computed afresh and judged again, so convergence is
+    /// never reported on a residual that drifted.
+    fn converged(&mut self, n: usize, set: &Settings) -> bool {
+        self.px.iter_mut().for_each(|v| *v = 0.0);
+        self.kkt.add_px(&self.x, &mut self.px);
+        // Nothing is carried into the first iteration.
+        if self.iterations > 0 && !self.fresh && !self.stopping(n, set) {
+            return false;
+        }
+        if !self.fresh {
+            self.residuals();
+        }
+        self.stopping(n, set)
+    }
+
+    fn stopping(&self, n: usize, set: &Settings) -> bool {
+        let c = self.cost_scale;
+        let x_px = dot(&self.x, &self.px);
+        let q_x = dot(&self.x, &self.q);
+        let px_norm = inf_norm(&self.px);
         let h_z = dot(&self.h, &self.z);
         let (x_norm, s_norm, z_norm) =
             (inf_norm(&self.x[..n]), inf_norm(&self.s), inf_norm(&self.z));
