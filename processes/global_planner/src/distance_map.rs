@@ -14,7 +14,7 @@
 //! transform of the current cells. Knows nothing of footprints or search.
 
 use crate::dist_tiles::{self, Cells, Envelope, FAR};
-use aisle_geometry::{FREE, GridView};
+use aisle_geometry::GridView;
 use std::cell::{Cell, OnceCell, RefCell};
 
 /// Distances are kept up to this many metres; farther is stored as this. Queries
@@ -299,8 +299,11 @@ impl DistanceMap {
     fn vert_tile(&self, t: usize) -> &[u32] {
         self.vert[t].get_or_init(|| {
             let mut tile = vec![FAR; TILE * TILE].into_boxed_slice();
+            let tx = t % self.tiles_x;
+            let word = |y: usize| self.bits_tile((y >> TILE_SHIFT) * self.tiles_x + tx)[y & MASK];
             dist_tiles::vertical(
                 self.grid(),
+                word,
                 self.reach,
                 self.tile_bounds(t),
                 &mut tile,
@@ -308,6 +311,14 @@ impl DistanceMap {
             );
             tile
         })
+    }
+
+    #[inline]
+    fn bits_tile(&self, t: usize) -> &[u64] {
+        match self.bits[t].get() {
+            Some(tile) => tile,
+            None => self.fill_bits(t),
+        }
     }
 
     /// The cell holding a world point, if inside the grid.
@@ -330,10 +341,7 @@ impl DistanceMap {
         let (r, first, last) = (row & MASK, c0 >> TILE_SHIFT, c1 >> TILE_SHIFT);
         let base = (row >> TILE_SHIFT) * self.tiles_x;
         (first..=last).any(|tx| {
-            let tile = match self.bits[base + tx].get() {
-                Some(tile) => tile,
-                None => self.fill_bits(base + tx),
-            };
+            let tile = self.bits_tile(base + tx);
             let lo = if tx == first { c0 & MASK } else { 0 };
             let hi = if tx == last { c1 & MASK } else { MASK };
             tile[r] & (u64::MAX >> (MASK - hi)) & (u64::MAX << lo) != 0
@@ -349,10 +357,7 @@ impl DistanceMap {
         }
         let (y, t) = (y as usize, t as usize);
         let tile = (y >> TILE_SHIFT) * self.tiles_x + t;
-        let bits = match self.bits[tile].get() {
-            Some(bits) => bits,
-            None => self.fill_bits(tile),
-        };
+        let bits = self.bits_tile(tile);
         let inside = self.width - t * TILE;
         let outside = if inside >= TILE {
             0
@@ -368,10 +373,8 @@ impl DistanceMap {
         let (x0, x1, y0, y1) = self.tile_bounds(t);
         let mut tile = vec![0u64; TILE].into_boxed_slice();
         for (y, word) in (y0..y1).zip(tile.iter_mut()) {
-            let row = &self.cells[y * self.width + x0..y * self.width + x1];
-            for (x, &c) in row.iter().enumerate() {
-                *word |= u64::from(c != FREE) << x;
-            }
+            *word =
+                dist_tiles::occupancy_word(&self.cells[y * self.width + x0..y * self.width + x1]);
         }
         self.bits[t].get_or_init(|| tile)
     }

@@ -1,6 +1,6 @@
 use super::*;
 use crate::tests::stream;
-use aisle_geometry::{CellIndex, GridMap, OCCUPIED_STATIC};
+use aisle_geometry::{CellIndex, FREE, GridMap, OCCUPIED_STATIC};
 
 #[test]
 fn matches_brute_force() {
@@ -85,11 +85,17 @@ fn lazy_tiles_equal_a_full_rebuild_bit_for_bit() {
             let (ix, iy) = (next(w), next(h));
             g.set(CellIndex { ix, iy }, OCCUPIED_STATIC);
         }
-        // A few racks: long runs, where the envelope has many parabolas.
-        for _ in 0..8 {
+        // A few racks: long runs, where the envelope has many parabolas (across), and
+        // where the vertical pass meets many columns in one row (along).
+        for r in 0..12 {
             let (x0, y0, len) = (next(w), next(h), 20 + next(200));
             for k in 0..len {
-                g.set(CellIndex { ix: x0 + k, iy: y0 }, OCCUPIED_STATIC);
+                let c = if r % 3 == 2 {
+                    CellIndex { ix: x0, iy: y0 + k }
+                } else {
+                    CellIndex { ix: x0 + k, iy: y0 }
+                };
+                g.set(c, OCCUPIED_STATIC);
             }
         }
         let mut kept = DistanceMap {
@@ -169,4 +175,21 @@ fn only_tiles_read_are_computed() {
     assert_eq!(changed.len(), 1);
     assert!(changed[0].x0 < 500 && changed[0].x1 > 500);
     assert!(dm.changes_since(0).is_none(), "before the rebuild: unknown");
+}
+
+#[test]
+fn occupancy_words_match_a_plain_loop() {
+    let mut next = stream(0x9e37_79b9_7f4a_7c15);
+    for len in 0..=64 {
+        for _ in 0..20 {
+            let row: Vec<u8> = (0..len)
+                .map(|_| [FREE, FREE, FREE, 1, 2, 127, 128, 255][next(8) as usize])
+                .collect();
+            let plain = row
+                .iter()
+                .enumerate()
+                .fold(0u64, |w, (x, &c)| w | (u64::from(c != FREE) << x));
+            assert_eq!(dist_tiles::occupancy_word(&row), plain, "{row:?}");
+        }
+    }
 }
