@@ -187,8 +187,8 @@ fn entry(c: &Candidate, ce: f32, se: f32, best: f32) -> Option<f32> {
     // The three slabs at once, without a branch between them: the divisions overlap.
     let mut t0 = 0.0f32;
     let mut t1 = f32::INFINITY;
-    for i in 0..3 {
-        let inv = 1.0 / d[i];
+    for (i, &di) in d.iter().enumerate() {
+        let inv = 1.0 / di;
         let ta = (-c.half[i] - c.origin[i]) * inv;
         let tb = (c.half[i] - c.origin[i]) * inv;
         t0 = t0.max(ta.min(tb));
@@ -202,10 +202,10 @@ fn entry(c: &Candidate, ce: f32, se: f32, best: f32) -> Option<f32> {
 fn entry_parallel(c: &Candidate, d: [f32; 3], best: f32) -> Option<f32> {
     let mut t0 = 0.0f32;
     let mut t1 = f32::INFINITY;
-    for i in 0..3 {
+    for (i, &di) in d.iter().enumerate() {
         let (o, h) = (c.origin[i], c.half[i]);
-        if d[i] != 0.0 {
-            let inv = 1.0 / d[i];
+        if di != 0.0 {
+            let inv = 1.0 / di;
             let ta = (-h - o) * inv;
             let tb = (h - o) * inv;
             t0 = t0.max(ta.min(tb));
