@@ -3,6 +3,9 @@
 //! 0.3 s of the hang (read off the driven path, at tick resolution) and drives on only
 //! with fresh inputs; in lockstep the sim clock waits, and the run ends exactly as an
 //! undisturbed one. A SIGCONT to the old process afterwards finds nothing to wake.
+//! A stopped supervisor is not replaced: when it wakes it finds the controller's reports
+//! queued, and each reached goal must still count once (a pick happens, every leg ends
+//! within its tolerance).
 
 mod support;
 
@@ -56,6 +59,10 @@ const SCHEDULE: [Hang; 5] = [
         hold_s: 1.0,
     },
 ];
+
+/// The supervisor itself stopped (wall seconds after ready, for how long): over the
+/// approach to the rack, where several reports of one reached goal queue up.
+const SUPERVISOR_STALL: (f64, f64) = (8.5, 4.0);
 
 /// The pid of supervisor `sup`'s node `name` now (it changes with every restart).
 fn node_pid(sup: u32, name: &str) -> Option<u32> {
@@ -124,12 +131,18 @@ fn every_node_type_hung_in_realtime_stops_the_robot_and_is_replaced() {
         .iter()
         .flat_map(|h| [(h.at_s, h.node, true), (h.at_s + h.hold_s, h.node, false)])
         .collect();
+    let (stall_at, stall_for) = SUPERVISOR_STALL;
+    events.push((stall_at, "supervisor", true));
+    events.push((stall_at + stall_for, "supervisor", false));
     events.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut stopped = std::collections::HashMap::new();
     for (at, node, stop) in events {
         let due = ready + Duration::from_secs_f64(at);
         std::thread::sleep(due.saturating_duration_since(Instant::now()));
-        if stop {
+        if node == "supervisor" {
+            let sig = if stop { libc::SIGSTOP } else { libc::SIGCONT };
+            assert!(signal(sup, sig), "signal the supervisor");
+        } else if stop {
             let pid = node_pid(sup, node).unwrap_or_else(|| panic!("no {node} at {at} s"));
             assert!(signal(pid, libc::SIGSTOP), "SIGSTOP {node}");
             stopped.insert(node, pid);
@@ -160,6 +173,27 @@ fn every_node_type_hung_in_realtime_stops_the_robot_and_is_replaced() {
     assert!(r.success, "{:?}", r.failure);
     assert_eq!(r.collisions, 0);
     assert!(r.restarts >= 5, "{} restarts", r.restarts);
+    for leg in &r.legs {
+        // The goal tolerance is 0.2 m along and across the goal: at most 0.29 m.
+        assert!(
+            leg.reached && leg.final_error_m < 0.29,
+            "leg `{}` ended {:.3} m from its goal",
+            leg.name,
+            leg.final_error_m
+        );
+    }
+    let rack = r
+        .bodies_final
+        .iter()
+        .find(|b| b.name == "rack2b")
+        .expect("rack2b");
+    // The seed's rack stands at (2, 13) and is carried to (6, -7).
+    assert!(
+        (rack.x - 6.0).hypot(rack.y + 7.0) < 0.5,
+        "rack2b was not carried: it ends at ({:.2}, {:.2})",
+        rack.x,
+        rack.y
+    );
     for hang in &SCHEDULE {
         let (node, t, silent) = log
             .iter()

@@ -9,11 +9,13 @@
 //! - [`retained_state`]: the state a restarted node resumes from.
 //! - [`tick_loop`]: the loop over the simulator's ticks and the lockstep protocol.
 //! - [`actions`]: the mission's actions carried out on the bus.
+//! - [`grasp`]: picks and set-downs checked against the robot's state.
 //! - [`status`]: the mission status and the progress lines.
 //! - [`shutdown`]: stopping the group and the run's report.
 
 mod actions;
 mod collision;
+mod grasp;
 mod health;
 mod link_watch;
 mod retained_state;
@@ -214,6 +216,10 @@ struct Session {
     mission: Mission,
     goal_id: u64,
     pose: Pose2,
+    /// The body the robot's state says it carries (-1: none), and the change the
+    /// mission asked for and has not seen yet.
+    carried: i32,
+    grasp: Option<grasp::Expected>,
     now_s: f64,
     ticks: u64,
     driven: Vec<[f64; 4]>,

@@ -83,8 +83,16 @@ impl Session {
                 Action::Attach(name) => {
                     let index = config.scene.body(&name).map_or(-1, |(i, _)| i as i32);
                     self.sim_command(SimCommandKind::Attach, Some((index, &name)))?;
+                    self.expect_carried(index, &name);
                 }
-                Action::Detach => self.sim_command(SimCommandKind::Detach, None)?,
+                Action::Detach => {
+                    self.sim_command(SimCommandKind::Detach, None)?;
+                    let held = usize::try_from(self.carried).ok();
+                    let name = held
+                        .and_then(|i| config.scene.bodies.get(i))
+                        .map_or_else(|| "the load".to_string(), |b| b.name.clone());
+                    self.expect_carried(-1, &name);
+                }
                 Action::MapperControl {
                     ignore,
                     carried,

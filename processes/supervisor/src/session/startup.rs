@@ -121,6 +121,8 @@ impl Session {
             mission,
             goal_id: 0,
             pose: config.mission.start_pose(),
+            carried: -1,
+            grasp: None,
             now_s: 0.0,
             ticks: 0,
             driven: Vec::new(),

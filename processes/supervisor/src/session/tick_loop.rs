@@ -70,6 +70,9 @@ impl Session {
             }
             actions.extend(self.read_trajectories()?);
             actions.extend(self.mission.on_tick(self.now_s, self.pose));
+            if let Some(halt) = self.grasp_failed() {
+                actions = halt;
+            }
             if let Some(halt) = self.collision_halt(opts) {
                 actions = halt;
             }
@@ -172,6 +175,7 @@ impl Session {
                 self.path_length += pose.distance(&self.pose);
             }
             self.pose = pose;
+            self.note_carried(rs.carried_body);
             self.driven
                 .push([rs.header.stamp_ns as f64 * 1e-9, pose.x, pose.y, pose.theta]);
         }
@@ -180,11 +184,15 @@ impl Session {
 
     /// Every trajectory since the last tick: its end-to-end latency, and for the
     /// current goal the controller's report to the mission.
+    /// Once a report has moved the mission on (a stage reached, a replan), the reports
+    /// still queued for the same goal are stale: a supervisor that fell behind (stopped,
+    /// or waiting on a plan in realtime) finds several, and each would otherwise count
+    /// again, a stage reached once ending the stages after it too.
     fn read_trajectories(&mut self) -> Result<Vec<Action>, RunAborted> {
         let mut actions = Vec::new();
         while let Some(traj) = self.ports.trajectory.receive()? {
             self.book.record_trajectory(&traj.header);
-            if traj.goal_id == self.goal_id && traj.goal_id != 0 {
+            if traj.goal_id == self.goal_id && traj.goal_id != 0 && actions.is_empty() {
                 let n = (traj.len as usize).min(traj.commands.len());
                 let increasing = traj.commands[..n].windows(2).all(|w| w[1].t > w[0].t);
                 tracing::debug!(
