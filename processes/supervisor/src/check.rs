@@ -7,6 +7,7 @@
 //! options against the graph and this host's CPUs). `aisle run` goes through the same
 //! path before it launches anything.
 
+pub mod arrival;
 pub mod goals;
 pub mod legs;
 #[cfg(test)]

@@ -3,7 +3,8 @@
 //! carried body is set down where its carry leg ends, rigidly held on the carry mount as
 //! the simulator holds it).
 //!
-//! Where the mission leaves a heading to the planner (an approach leg without a goal),
+//! An approach leg without a goal drives to the body where it stands when the leg
+//! starts. Where the mission leaves a heading to the planner (such a leg),
 //! the robot may end under the body facing any of its four sides: every such pose is
 //! kept as a candidate, and so is every pose a body may be set down at after such a
 //! pick. The checks refuse only what holds for every candidate, so an unknown heading
@@ -53,7 +54,12 @@ pub fn walk<'a>(mission: &'a MissionConfig, scene: &Scene, mount: Pose2) -> Vec<
     let mut views = Vec::with_capacity(mission.leg.len());
     for (index, leg) in mission.leg.iter().enumerate() {
         let approached = index_of(&leg.approach);
-        let goal = Pose2::new(leg.goal[0], leg.goal[1], leg.goal[2]);
+        // A goal left out is the approached body where it stands now (the mission may
+        // have carried it since the scene placed it).
+        let goal = match approached {
+            Some(b) if leg.goal_given.is_none() => bodies[b][0],
+            _ => Pose2::new(leg.goal[0], leg.goal[1], leg.goal[2]),
+        };
         let headings = match approached {
             Some(b) if leg.free_heading => {
                 let mut h: Vec<f64> = Vec::new();

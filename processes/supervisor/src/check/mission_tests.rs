@@ -276,3 +276,48 @@ fn a_carry_leg_must_start_under_its_body() {
         ],
     );
 }
+
+#[test]
+fn a_turn_in_place_ends_where_it_starts() {
+    let f = Fixture::shipped("rotate-away");
+    refused(
+        &f,
+        &mission(
+            "[[leg]]\nname = \"out\"\ngoal = [6.0, 5.0, 0.0]\n\
+             [[leg]]\nname = \"turn elsewhere\"\ngoal = [7.0, 6.0, 1.57]\nrotate = true\n",
+        ),
+        &[
+            "key `leg[1].goal`",
+            "leg `turn elsewhere` turns in place, but its goal (7, 6) is 1.414 m from where it starts (6, 5)",
+        ],
+    );
+}
+
+#[test]
+fn an_approach_with_a_goal_ends_under_the_body() {
+    let f = Fixture::shipped("approach-beside");
+    refused(
+        &f,
+        &mission("[[leg]]\nname = \"to pick\"\ngoal = [6.0, 5.0, 0.0]\napproach = \"rack2b\"\n"),
+        &[
+            "key `leg[0].goal`",
+            "leg `to pick` approaches `rack2b`, but its goal (6, 5) leaves the carry mount",
+            "`rack2b` stands at (2.000, 13.000)",
+        ],
+    );
+}
+
+#[test]
+fn an_approach_without_a_goal_finds_the_body_where_the_mission_set_it_down() {
+    // Picked at (2, 13), set down at (6, -7), then approached again and carried on: the
+    // second pick starts under the rack where it stands, not where the scene had it.
+    let f = Fixture::shipped("repick");
+    f.check(&mission(
+        "[[leg]]\nname = \"to pick\"\napproach = \"rack2b\"\n\
+             [[leg]]\nname = \"carry\"\ngoal = [6.0, -7.0, 0.0]\ncarry = \"rack2b\"\n\
+             [[leg]]\nname = \"away\"\ngoal = [6.0, 6.0, 1.57]\n\
+             [[leg]]\nname = \"again\"\napproach = \"rack2b\"\n\
+             [[leg]]\nname = \"carry on\"\ngoal = [8.0, 7.0, 1.57]\ncarry = \"rack2b\"\n",
+    ))
+    .unwrap();
+}

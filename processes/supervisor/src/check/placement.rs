@@ -7,6 +7,7 @@
 //! mission file, the key, the leg and the body or the map. Knows nothing of how the
 //! mission is driven.
 
+use super::arrival;
 use super::goals::{self, Refusal};
 use super::legs::{self, LegView};
 use super::reach::{Reach, Verdict};
@@ -79,6 +80,8 @@ pub fn check_mission(
     for view in legs::walk(mission, ground.scene, ground.model.carry_mount_planar()) {
         let tolerance = mission.goal_tolerance[0].hypot(mission.goal_tolerance[1]);
         goals::check_pick(&view, ground, tolerance)
+            .and_then(|()| arrival::check_rotate(&view, tolerance))
+            .and_then(|()| arrival::check_approach(&view, ground, tolerance))
             .and_then(|()| goals::check_goal(&view, ground))
             .and_then(|()| goals::check_drop(&view, ground))
             .and_then(|()| reachable(&view, ground, &mut reach))

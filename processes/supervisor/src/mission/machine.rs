@@ -203,8 +203,18 @@ impl Mission {
         if let Some(d) = self.departure {
             return d;
         }
-        let g = self.spec().goal;
-        Pose2::new(g[0], g[1], g[2])
+        // An approach leg without a stated goal drives to the body where it stands now.
+        match self
+            .approached()
+            .filter(|_| self.spec().goal_given.is_none())
+        {
+            Some(body) => body.pose,
+            None => Pose2::new(
+                self.spec().goal[0],
+                self.spec().goal[1],
+                self.spec().goal[2],
+            ),
+        }
     }
 
     /// The footprint and margin of the current load (the margin scaled down while
@@ -224,12 +234,6 @@ impl Mission {
 
     fn body(&self, name: &str) -> Option<&NamedBody> {
         self.bodies.iter().find(|b| b.name == name)
-    }
-
-    /// The approached body where it stands (where the mission set it down, else where
-    /// the scene puts it).
-    fn approached(&self) -> Option<DockBody> {
-        self.standing(self.spec().approach.as_deref()?)
     }
 
     /// Begins the current leg at sim time `now_s` from `pose`.

@@ -187,6 +187,12 @@ impl Mission {
         self.placed.retain(|(name, _)| name != body);
     }
 
+    /// The approached body where it stands (where the mission set it down, else where
+    /// the scene puts it).
+    pub(super) fn approached(&self) -> Option<DockBody> {
+        self.standing(self.spec().approach.as_deref()?)
+    }
+
     /// Where `name` stands: where the mission set it down, else where the scene has it.
     pub(super) fn standing(&self, name: &str) -> Option<DockBody> {
         if let Some((_, b)) = self.placed.iter().find(|(n, _)| n == name) {

@@ -1,0 +1,68 @@
+//! Where a leg's goal must lie for the leg to mean what it says: a turn in place ends
+//! where it starts, and an approach with a stated goal ends with the carry mount under
+//! the approached body. Either would otherwise drive (or turn) to a goal the mission
+//! cannot reach as asked: a turn in place only turns, and a goal beside the body leaves
+//! the next carry leg nothing to pick up. Knows the legs' views, not maps or planners.
+
+use super::goals::Refusal;
+use super::legs::LegView;
+use super::placement::Ground;
+
+/// A turn in place: its goal within `tolerance` (m) of where the leg may start.
+pub fn check_rotate(view: &LegView, tolerance: f64) -> Result<(), Refusal> {
+    if !view.leg.rotate {
+        return Ok(());
+    }
+    let g = view.goal;
+    let off = view
+        .start
+        .iter()
+        .map(|s| (s.x - g.x).hypot(s.y - g.y))
+        .fold(f64::INFINITY, f64::min);
+    if off <= tolerance {
+        return Ok(());
+    }
+    let s = view.start[0];
+    Err(Refusal {
+        key: format!("leg[{}].goal", view.index),
+        why: format!(
+            "leg `{}` turns in place, but its goal ({}, {}) is {off:.3} m from where it \
+             starts ({}, {}): a turn in place only turns, so its goal must be where the leg \
+             before it ends (within the goal tolerance, {tolerance:.3} m)",
+            view.leg.name, g.x, g.y, s.x, s.y
+        ),
+    })
+}
+
+/// An approach with a stated goal: the carry mount there within `tolerance` (m) of the
+/// approached body's footprint, wherever the body may stand then.
+pub fn check_approach(view: &LegView, g: &Ground, tolerance: f64) -> Result<(), Refusal> {
+    let (Some(body), Some(_)) = (view.approached, view.leg.goal_given) else {
+        return Ok(());
+    };
+    let b = &g.scene.bodies[body];
+    let f = b.footprint();
+    let mount = g.model.carry_mount_planar();
+    let gap = view
+        .goal_poses()
+        .flat_map(|p| {
+            let m = p.compose(&mount);
+            view.bodies[body]
+                .iter()
+                .map(move |at| f.signed_distance(at, m.x, m.y))
+        })
+        .fold(f64::INFINITY, f64::min);
+    if gap <= tolerance {
+        return Ok(());
+    }
+    let (goal, at) = (view.goal, view.bodies[body][0]);
+    Err(Refusal {
+        key: format!("leg[{}].goal", view.index),
+        why: format!(
+            "leg `{}` approaches `{}`, but its goal ({}, {}) leaves the carry mount {gap:.3} m \
+             outside it (`{}` stands at ({:.3}, {:.3})): state a goal under the body, or none \
+             (the robot then drives under it from the side the planner chooses)",
+            view.leg.name, b.name, goal.x, goal.y, b.name, at.x, at.y
+        ),
+    })
+}
