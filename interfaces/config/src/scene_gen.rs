@@ -82,6 +82,25 @@ impl GenParams {
         if self.length > 2000.0 || self.packaging_depth > 200.0 {
             return Some("--length must be <= 2000 and --packaging-depth <= 200".into());
         }
+        // Wider than a real aisle is a hall with nothing in it, and its size (and the
+        // generator's time and memory) grows with these without bound.
+        for (flag, v, max) in [
+            ("aisle-width", self.aisle_width, 50.0),
+            ("cross-width", self.cross_width, 50.0),
+            ("cross-every", self.cross_every, 2000.0),
+        ] {
+            if v > max {
+                return Some(format!("--{flag} must be <= {max}, got {v}"));
+            }
+        }
+        let width = Layout::new(self).width;
+        if width > 2000.0 {
+            return Some(format!(
+                "the hall would be {width:.0} m wide (--aisles {} of --aisle-width {} between \
+                 rack rows): at most 2000 m",
+                self.aisles, self.aisle_width
+            ));
+        }
         if !(0.0..=1.0).contains(&self.fill) {
             return Some(format!("--fill must be in 0..=1, got {}", self.fill));
         }

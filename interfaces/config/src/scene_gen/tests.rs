@@ -132,4 +132,37 @@ fn bad_numbers_name_their_flag() {
     };
     assert!(p.problem().unwrap().contains("--aisle-width"));
     assert!(GenParams::new(19, 172.0, 1).problem().is_none());
+    // Too large: refused before anything is generated (1e5 m took 11 GB and 26 s).
+    for (p, flag) in [
+        (
+            GenParams {
+                aisle_width: 1e5,
+                ..GenParams::new(3, 100.0, 1)
+            },
+            "--aisle-width",
+        ),
+        (
+            GenParams {
+                cross_width: 1e9,
+                ..GenParams::new(3, 100.0, 1)
+            },
+            "--cross-width",
+        ),
+        (
+            GenParams {
+                cross_every: 1e9,
+                ..GenParams::new(3, 100.0, 1)
+            },
+            "--cross-every",
+        ),
+        (
+            GenParams {
+                aisle_width: 50.0,
+                ..GenParams::new(500, 100.0, 1)
+            },
+            "wide",
+        ),
+    ] {
+        assert!(p.problem().unwrap().contains(flag), "{:?}", p.problem());
+    }
 }
