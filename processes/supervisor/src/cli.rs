@@ -10,7 +10,7 @@
 
 mod args;
 mod commands;
-mod config;
+pub(crate) mod config;
 mod install;
 mod logging;
 mod overlay;

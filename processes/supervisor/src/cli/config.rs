@@ -20,6 +20,9 @@ pub fn embedded_files() -> &'static [(&'static str, &'static [u8])] {
     embedded::FILES
 }
 
+/// How the private config directories of commands are named in the temporary directory.
+pub const CONFIG_DIR_PREFIX: &str = "aisle-config-";
+
 /// A config directory a command uses; an embedded one is removed when this is dropped.
 pub struct ConfigDir {
     path: PathBuf,
@@ -49,8 +52,14 @@ pub fn resolve(explicit: Option<&Path>) -> anyhow::Result<ConfigDir> {
     };
     // 0700 (created so, not changed after): other users cannot read or swap the files.
     use std::os::unix::fs::PermissionsExt;
+    // Named after this process (pid and start time), so `aisle clean` can tell a
+    // directory a killed command left from one in use.
+    let prefix = match aisle_bus::owner::Owner::current() {
+        Some(o) => format!("{CONFIG_DIR_PREFIX}{}-{}-", o.pid, o.start),
+        None => CONFIG_DIR_PREFIX.to_string(),
+    };
     let temp = tempfile::Builder::new()
-        .prefix("aisle-config-")
+        .prefix(&prefix)
         .permissions(std::fs::Permissions::from_mode(0o700))
         .tempdir()
         .context("creating a directory for the config (is TMPDIR writable?)")?;
