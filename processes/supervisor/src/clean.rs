@@ -123,6 +123,19 @@ fn config_dir_owner(name: &str) -> Option<aisle_bus::owner::Owner> {
     Some(aisle_bus::owner::Owner { pid, start })
 }
 
+fn describe(s: &StaleInstance) -> String {
+    let root = match &s.root {
+        Some(r) => format!("root {}, ", r.display()),
+        None => String::new(),
+    };
+    format!(
+        "instance {} ({}): {root}{} shared-memory file(s)",
+        s.prefix,
+        s.why,
+        s.shm_files.len()
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -153,17 +166,4 @@ mod tests {
         assert!(live.exists(), "a live command's directory was removed");
         std::fs::remove_dir_all(&live).unwrap();
     }
-}
-
-fn describe(s: &StaleInstance) -> String {
-    let root = match &s.root {
-        Some(r) => format!("root {}, ", r.display()),
-        None => String::new(),
-    };
-    format!(
-        "instance {} ({}): {root}{} shared-memory file(s)",
-        s.prefix,
-        s.why,
-        s.shm_files.len()
-    )
 }
