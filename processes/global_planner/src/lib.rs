@@ -62,7 +62,7 @@ pub use dock::{DockKind, DockSite, Placed};
 pub use docked::DockedPlan;
 pub use error::{InvalidInput, PlanError, PlanErrorKind, PlanStats};
 pub use search::{Plan, PlanRequest, Planner};
-pub use validate::{PathViolation, check_turning_radius, validate_path};
+pub use validate::{PathViolation, check_turning_radius, footprint_touches, validate_path};
 
 #[cfg(test)]
 mod tests;

@@ -7,6 +7,13 @@ use crate::collision::footprint_hits;
 use crate::motion::Motion;
 use aisle_geometry::{Direction, Footprint, GridView, PathPose, Pose2};
 
+/// Whether `footprint` grown by `margin` at `at` touches an occupied cell of `map` or
+/// leaves it: the rule the planner refuses a start or a goal by (a start with no margin
+/// at all, since it relieves the margin around the start).
+pub fn footprint_touches(map: &GridView, footprint: Footprint, margin: f64, at: &Pose2) -> bool {
+    footprint_hits(map, &footprint.inflated(margin), at)
+}
+
 /// Where and why a path is not valid.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 pub enum PathViolation {

@@ -321,3 +321,17 @@ fn an_approach_without_a_goal_finds_the_body_where_the_mission_set_it_down() {
     ))
     .unwrap();
 }
+
+#[test]
+fn a_start_in_the_maps_boundary_band_is_refused() {
+    // Inside the map and clear of every body, but in the 1 m band along its east edge.
+    let f = Fixture::shipped("start-band");
+    refused(
+        &f,
+        &seed_with("start = [0.0, 0.0, 0.0]", "start = [14.3, 5.0, 0.0]"),
+        &[
+            "key `start`",
+            "at (14.3, 5, 0) touches occupied cells of the static map",
+        ],
+    );
+}

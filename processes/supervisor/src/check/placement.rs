@@ -67,6 +67,27 @@ pub fn check_mission(
         }
         Err(e) => return Err(bad("start", e.to_string())),
     }
+    // The planner refuses a start whose bare footprint touches the static map (a wall,
+    // the boundary band), unless the first leg leaves from under a body straight ahead.
+    let departs = mission.leg.first().is_some_and(|l| l.depart.is_some());
+    if !departs
+        && aisle_global_planner::footprint_touches(&ground.static_map, footprint, 0.0, &start)
+    {
+        return Err(bad(
+            "start",
+            format!(
+                "the robot's footprint ({} x {} m, robot.toml footprint.alone) at ({}, {}, {}) \
+                 touches occupied cells of the static map ({}: a wall, a body's legs or the \
+                 map's boundary band), where the planner cannot start",
+                footprint.length,
+                footprint.width,
+                start.x,
+                start.y,
+                start.theta,
+                ground.map_path.display()
+            ),
+        ));
+    }
     for (i, leg) in mission.leg.iter().enumerate() {
         let goal = Pose2::new(leg.goal[0], leg.goal[1], leg.goal[2]);
         if let Some(why) = outside(goal, footprint, ground.map) {
