@@ -335,3 +335,23 @@ fn a_start_in_the_maps_boundary_band_is_refused() {
         ],
     );
 }
+
+#[test]
+fn a_stated_heading_that_puts_the_robot_in_the_band_is_refused() {
+    // 0.28 m from the east band (x >= 14): across, the robot's half-width and the least
+    // margin fit (0.265 m); along, its half-length does not (0.304 m).
+    let f = Fixture::shipped("band-heading");
+    refused(
+        &f,
+        &mission("[[leg]]\nname = \"by the wall\"\ngoal = [13.72, 2.0, 0.0]\n"),
+        &[
+            "key `leg[0].goal`",
+            "at the goal (13.72, 2, 0) of leg `by the wall`",
+            "touches occupied cells of the static map",
+        ],
+    );
+    f.check(&mission(
+        "[[leg]]\nname = \"by the wall\"\ngoal = [13.72, 2.0, 1.5707963267948966]\n",
+    ))
+    .unwrap();
+}

@@ -106,6 +106,7 @@ pub fn check_mission(
             .and_then(|()| goals::check_goal(&view, ground))
             .and_then(|()| goals::check_drop(&view, ground))
             .and_then(|()| reachable(&view, ground, &mut reach))
+            .and_then(|()| arrival::check_goal_clear(&view, ground))
             .map_err(|r| bad(&r.key, r.why))?;
     }
     Ok(())

@@ -223,7 +223,7 @@ impl Mission {
         // Backing off never goes below MIN_BACKED_OFF_MARGIN: the controller's grid
         // (0.1 m cells) and soft constraints need some room (a sweep measured contacts
         // with 0.025 m).
-        let scaled = |m: f64| (m * self.margin_scale).max(m.min(MIN_BACKED_OFF_MARGIN));
+        let scaled = |m: f64| (m * self.margin_scale).max(backoff::least_margin(m));
         if self.carrying {
             let margin = scaled(self.footprints.carrying_margin);
             (self.carrying_footprint(), margin)
@@ -497,7 +497,7 @@ impl Mission {
     }
 }
 
-mod backoff;
+pub mod backoff;
 mod docking;
 mod progress;
 

@@ -166,11 +166,15 @@ impl Session {
                         ),
                         // The start within the margin, no path that keeps it (also "no
                         // path" at the first expansion: the heuristic's grid grows
-                        // obstacles by the margin and cut the start off), or a search
-                        // that ran out threading the whole margin through a tight gap.
+                        // obstacles by the margin and cut the start off), a search that
+                        // ran out threading the whole margin through a tight gap, or a
+                        // goal close to a wall or a rack (parked beside a row).
                         margin_bound: matches!(
                             s,
-                            PlanStatus::StartOccupied | PlanStatus::NoPath | PlanStatus::Timeout
+                            PlanStatus::StartOccupied
+                                | PlanStatus::NoPath
+                                | PlanStatus::Timeout
+                                | PlanStatus::GoalOccupied
                         ),
                     }),
                     None => Err(PlanFailure::new(format!(

@@ -18,6 +18,12 @@ use aisle_geometry::Pose2;
 /// with it.
 const RESTORE_MARGIN_AFTER_M: f64 = 1.0;
 
+/// The least margin backing off ever plans with when the leg's margin is `m` (what the
+/// mission check holds a goal to).
+pub fn least_margin(m: f64) -> f64 {
+    (m * super::MIN_MARGIN_SCALE).max(m.min(super::MIN_BACKED_OFF_MARGIN))
+}
+
 impl Mission {
     /// A plan with a reduced margin is about to be driven from `pose`.
     pub(super) fn note_backed_off(&mut self, pose: Pose2) {
