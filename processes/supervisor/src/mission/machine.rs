@@ -200,21 +200,7 @@ impl Mission {
     }
 
     fn goal(&self) -> Pose2 {
-        if let Some(d) = self.departure {
-            return d;
-        }
-        // An approach leg without a stated goal drives to the body where it stands now.
-        match self
-            .approached()
-            .filter(|_| self.spec().goal_given.is_none())
-        {
-            Some(body) => body.pose,
-            None => Pose2::new(
-                self.spec().goal[0],
-                self.spec().goal[1],
-                self.spec().goal[2],
-            ),
-        }
+        self.departure.unwrap_or_else(|| self.leg_goal())
     }
 
     /// The footprint and margin of the current load (the margin scaled down while

@@ -187,6 +187,16 @@ impl Mission {
         self.placed.retain(|(name, _)| name != body);
     }
 
+    /// The goal the leg states, or (an approach leg without one) the body where it stands
+    /// now.
+    pub(super) fn leg_goal(&self) -> Pose2 {
+        let spec = self.spec();
+        match self.approached().filter(|_| spec.goal_given.is_none()) {
+            Some(body) => body.pose,
+            None => Pose2::new(spec.goal[0], spec.goal[1], spec.goal[2]),
+        }
+    }
+
     /// The approached body where it stands (where the mission set it down, else where
     /// the scene puts it).
     pub(super) fn approached(&self) -> Option<DockBody> {
