@@ -215,6 +215,9 @@ struct Session {
     book: SampleBook,
     mission: Mission,
     goal_id: u64,
+    /// The tick of the newest trajectory read: one seen again (sent again by a restarted
+    /// controller, or by the retained state) is not reported to the mission twice.
+    trajectory_tick: Option<u64>,
     pose: Pose2,
     /// The body the robot's state says it carries (-1: none), and the change the
     /// mission asked for and has not seen yet.

@@ -85,6 +85,10 @@ pub struct ControllerStage {
     /// The last controller tick stepped: a tick seen again (the simulator restarted) is
     /// only acknowledged, so the band is never stepped twice for one tick.
     last_done: Option<u64>,
+    /// The trajectory of `last_done` as the predecessor published it (lockstep, after a
+    /// restart): a restarted simulator repeats that tick, and its copy of the trajectory
+    /// died with it, so it is sent once more, unchanged, when the tick is repeated.
+    resend: Option<Box<Trajectory>>,
     pose: Pose2,
     velocity: (f64, f64),
     /// The local map in use, copied out of shared memory (a realtime step may have to
@@ -119,6 +123,7 @@ impl ControllerStage {
             },
             mode: TickMode::Lockstep,
             last_done: None,
+            resend: None,
             pose: start,
             velocity: (0.0, 0.0),
             map: GridCopy::with_capacity(aisle_messages::MAX_GRID_CELLS),
@@ -362,6 +367,11 @@ impl Stage for ControllerStage {
             self.teb
                 .restore(&snap)
                 .map_err(|e| NodeError::Protocol(format!("teb_controller: resuming band: {e}")))?;
+            // Retained beside the band (`graph.toml`), published before it.
+            self.resend = io
+                .retained(topics::TRAJECTORY, wait)?
+                .filter(|t| t.header.tick == b.header.tick)
+                .map(|t| Box::new(*t));
         }
         tracing::warn!(
             "teb_controller: resumed goal {} after tick {}",
@@ -381,6 +391,9 @@ impl Stage for ControllerStage {
         }
         let k = tick.header.tick;
         if self.last_done.is_some_and(|d| k <= d) {
+            if let Some(t) = self.resend.take_if(|t| t.header.tick == k) {
+                io.publish(topics::TRAJECTORY, Stamp::of(&tick.header), |m| *m = *t)?;
+            }
             return Ok(Cycle::repeat());
         }
         self.last_done = Some(k);
@@ -630,6 +643,41 @@ mod tests {
             .unwrap();
         assert_eq!((got.0, got.1), (3, 0));
         assert!(got.2 > 10, "{got:?}");
+    }
+
+    #[test]
+    fn a_restarted_controller_sends_the_trajectory_of_a_repeated_tick_again_once() {
+        let (mut r, io) = (stage(), MemIo::new());
+        straight_task(&io, 15, [0.08, 0.04, 0.06]);
+        io.retain(topics::CONTROLLER_BAND, |b| {
+            b.header.tick = 14;
+            b.goal_id = 3;
+        });
+        io.retain(topics::TRAJECTORY, |t| {
+            t.header.tick = 14;
+            t.goal_id = 3;
+            t.len = 1;
+            t.commands[0].v = 0.123;
+        });
+        let ctx = RunContext {
+            mode: TickMode::Lockstep,
+            seed: 1,
+            restarted: true,
+        };
+        r.restore(&io, &ctx).unwrap();
+        // The restarted simulator repeats tick 14 (twice, were it to restart again).
+        for _ in 0..2 {
+            let c = r.process(&tick(14, STAGE_CONTROLLER), &io).unwrap();
+            assert_eq!(c.compute_ns, Some(0));
+        }
+        assert_eq!(io.published_len(topics::TRAJECTORY), 1);
+        let sent = io.published(topics::TRAJECTORY, 0, |t| {
+            (t.header.tick, t.len, t.commands[0].v)
+        });
+        assert_eq!(sent, Some((14, 1, 0.123)));
+        // Tick 15 is stepped as always.
+        r.process(&tick(15, STAGE_CONTROLLER), &io).unwrap();
+        assert_eq!(io.published_len(topics::TRAJECTORY), 2);
     }
 
     #[test]

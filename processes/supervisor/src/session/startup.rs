@@ -120,6 +120,7 @@ impl Session {
             book: SampleBook::default(),
             mission,
             goal_id: 0,
+            trajectory_tick: None,
             pose: config.mission.start_pose(),
             carried: -1,
             grasp: None,

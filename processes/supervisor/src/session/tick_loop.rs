@@ -191,6 +191,11 @@ impl Session {
     fn read_trajectories(&mut self) -> Result<Vec<Action>, RunAborted> {
         let mut actions = Vec::new();
         while let Some(traj) = self.ports.trajectory.receive()? {
+            let k = traj.header.tick;
+            if self.trajectory_tick.is_some_and(|seen| k <= seen) {
+                continue;
+            }
+            self.trajectory_tick = Some(k);
             self.book.record_trajectory(&traj.header);
             if traj.goal_id == self.goal_id && traj.goal_id != 0 && actions.is_empty() {
                 let n = (traj.len as usize).min(traj.commands.len());
