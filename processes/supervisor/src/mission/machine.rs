@@ -437,7 +437,7 @@ impl Mission {
             replans: self.replans,
             plan_failures: self.plan_failures,
             final_error_m: pose.distance(&goal),
-            final_heading_error_rad: pose.heading_error(&goal),
+            final_heading_error_rad: self.heading_error(&pose, &goal),
         });
     }
 

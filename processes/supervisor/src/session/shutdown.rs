@@ -100,7 +100,9 @@ impl Session {
                         .collect(),
                 })
                 .collect(),
-            bodies_final: truth.map(movable_bodies).unwrap_or_default(),
+            bodies_final: truth
+                .map(|t| movable_bodies(t, &config.scene))
+                .unwrap_or_default(),
         }
     }
 }
@@ -114,15 +116,47 @@ impl Session {
 }
 
 /// Where the movable bodies stand, ground truth.
-fn movable_bodies(t: &WorldTruth) -> Vec<BodyPose> {
+fn movable_bodies(t: &WorldTruth, scene: &aisle_config::scene::Scene) -> Vec<BodyPose> {
     t.bodies[..(t.len as usize).min(t.bodies.len())]
         .iter()
         .filter(|b| b.is_static == 0)
         .map(|b| BodyPose {
-            name: read_name(&b.name).to_string(),
+            // The message holds a name's first bytes; the scene (the simulator's, by
+            // index) has all of it.
+            name: scene
+                .bodies
+                .get(b.index as usize)
+                .filter(|s| s.name.starts_with(read_name(&b.name)))
+                .map_or_else(|| read_name(&b.name).to_string(), |s| s.name.clone()),
             x: b.pose.x,
             y: b.pose.y,
             theta: b.pose.theta,
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_body_named_longer_than_the_message_holds_is_reported_by_its_whole_name() {
+        let long = "rack_row_17_slot_42_pallet_stack_north";
+        let text = format!(
+            "[[body]]\nname = \"{long}\"\nkind = \"box\"\nstatic = false\npose = [1.0, 2.0, 0.0]\nsize = [0.5, 0.5, 0.5]\n"
+        );
+        let scene = aisle_config::scene::Scene::parse(std::path::Path::new("w.toml"), &text)
+            .expect("scene");
+        let mut t = *aisle_messages::zeroed_box::<WorldTruth>();
+        t.len = 1;
+        aisle_messages::write_name(&mut t.bodies[0].name, long);
+        t.bodies[0].index = 0;
+        t.bodies[0].pose.x = 3.0;
+        let got = movable_bodies(&t, &scene);
+        assert_eq!(got[0].name, long);
+        assert_eq!(got[0].x, 3.0);
+        // A name that is not the scene's (another scene) stays the message's.
+        let other = aisle_config::scene::Scene { bodies: Vec::new() };
+        assert_eq!(movable_bodies(&t, &other)[0].name, &long[..32]);
+    }
 }

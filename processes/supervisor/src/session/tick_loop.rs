@@ -88,6 +88,12 @@ impl Session {
             self.acknowledge(&tick, Some(done))?;
             self.health.restarted.clear();
             if self.mission.is_finished() {
+                for (kind, at) in &kills {
+                    tracing::warn!(
+                        "--kill {}@{at}: not injected, the run ended at tick {k}",
+                        kind.name()
+                    );
+                }
                 return Ok(());
             }
         }

@@ -197,6 +197,21 @@ impl Mission {
         }
     }
 
+    /// How far `pose` is turned from `goal`, the leg's: a body approached without a
+    /// stated goal is docked under from either end, so there the error is at most a
+    /// quarter turn (the other end's).
+    pub(super) fn heading_error(&self, pose: &Pose2, goal: &Pose2) -> f64 {
+        let e = pose.heading_error(goal);
+        let either_end = self.departure.is_none()
+            && self.spec().goal_given.is_none()
+            && self.approached().is_some();
+        if either_end {
+            e.min(std::f64::consts::PI - e)
+        } else {
+            e
+        }
+    }
+
     /// The approached body where it stands (where the mission set it down, else where
     /// the scene puts it).
     pub(super) fn approached(&self) -> Option<DockBody> {

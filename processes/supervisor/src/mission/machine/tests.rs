@@ -502,3 +502,27 @@ fn a_way_out_through_a_side_turns_in_place_first() {
         "{a:?}"
     );
 }
+
+#[test]
+fn a_rack_approached_without_a_goal_counts_either_end_as_its_heading() {
+    let mut m = mission();
+    m.cfg.leg[0].goal_given = None;
+    let facing_back = Pose2::new(1.0, 0.0, 3.1);
+    m.start_leg(0.0, Pose2::default());
+    m.on_plan(0.0, Pose2::default(), Ok(Planned::plain(path())));
+    m.on_controller(2.0, facing_back, REACHED);
+    m.on_controller(3.0, facing_back, REACHED);
+    let leg = &m.results[0];
+    assert!(leg.reached);
+    assert!(
+        (leg.final_heading_error_rad - (std::f64::consts::PI - 3.1)).abs() < 1e-9,
+        "{leg:?}"
+    );
+    // A stated heading is the heading: the turn in place after it is 0.1 rad off 3.0.
+    m.on_controller(4.0, facing_back, REACHED);
+    let turn = &m.results[1];
+    assert!(
+        (turn.final_heading_error_rad - 0.1).abs() < 1e-9,
+        "{turn:?}"
+    );
+}
