@@ -6,7 +6,7 @@
 //! cannot reach as asked: a turn in place only turns, and a goal beside the body leaves
 //! the next carry leg nothing to pick up. Knows the legs' views, not maps or planners.
 
-use super::goals::Refusal;
+use super::goals::{Refusal, mount_gap};
 use super::legs::LegView;
 use super::placement::Ground;
 
@@ -43,17 +43,7 @@ pub fn check_approach(view: &LegView, g: &Ground, tolerance: f64) -> Result<(), 
         return Ok(());
     };
     let b = &g.scene.bodies[body];
-    let f = b.footprint();
-    let mount = g.model.carry_mount_planar();
-    let gap = view
-        .goal_poses()
-        .flat_map(|p| {
-            let m = p.compose(&mount);
-            view.bodies[body]
-                .iter()
-                .map(move |at| f.signed_distance(at, m.x, m.y))
-        })
-        .fold(f64::INFINITY, f64::min);
+    let gap = mount_gap(view.goal_poses(), body, view, g);
     if gap <= tolerance {
         return Ok(());
     }

@@ -165,6 +165,26 @@ fn refusal(view: &LegView, g: &Ground, what: &str, body: usize) -> Refusal {
     }
 }
 
+/// How far the robot's carry mount is outside body `body`'s footprint (negative:
+/// inside), at the closest of the robot's `poses` and the body's candidate poses.
+pub fn mount_gap(
+    poses: impl Iterator<Item = Pose2>,
+    body: usize,
+    view: &LegView,
+    g: &Ground,
+) -> f64 {
+    let f = g.scene.bodies[body].footprint();
+    let mount = g.model.carry_mount_planar();
+    poses
+        .flat_map(|p| {
+            let m = p.compose(&mount);
+            view.bodies[body]
+                .iter()
+                .map(move |at| f.signed_distance(at, m.x, m.y))
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
 /// On a carry leg: the carry mount must be under the carried body when the leg starts
 /// (the simulator's condition for picking it up), at least within the goal tolerance of
 /// the previous goal.
@@ -173,15 +193,7 @@ pub fn check_pick(view: &LegView, g: &Ground, tolerance: f64) -> Result<(), Refu
         return Ok(());
     };
     let body = &g.scene.bodies[*carried];
-    let f = body.footprint();
-    let mount = g.model.carry_mount_planar();
-    let under = view.start.iter().any(|s| {
-        let m = s.compose(&mount);
-        view.bodies[*carried]
-            .iter()
-            .any(|b| f.signed_distance(b, m.x, m.y) <= tolerance)
-    });
-    if under {
+    if mount_gap(view.start.iter().copied(), *carried, view, g) <= tolerance {
         return Ok(());
     }
     let (s, b) = (view.start[0], view.bodies[*carried][0]);
