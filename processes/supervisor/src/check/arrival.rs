@@ -1,14 +1,16 @@
 //! Where a leg's goal must lie for the leg to mean what it says: a turn in place ends
 //! where it starts, an approach with a stated goal ends with the carry mount under the
-//! approached body, and a goal the robot drives to alone with a stated heading leaves
-//! its footprint clear of the static map with the least margin the mission backs off to
-//! (a goal that touches with the full margin is planned again with less). Either would otherwise drive (or turn) to a goal the mission
+//! approached body, and a goal the robot drives to (alone, or carrying with the body
+//! as a pick may seat it) with a stated heading leaves its footprint clear of the static
+//! map with the least margin the mission backs off to (a goal that touches with the full
+//! margin is planned again with less). Either would otherwise drive (or turn) to a goal the mission
 //! cannot reach as asked: a turn in place only turns, and a goal beside the body leaves
 //! the next carry leg nothing to pick up. Knows the legs' views, not maps or planners.
 
 use super::goals::{Refusal, mount_gap};
 use super::legs::LegView;
 use super::placement::Ground;
+use aisle_geometry::{Footprint, Pose2};
 
 /// A turn in place: its goal within `tolerance` (m) of where the leg may start.
 pub fn check_rotate(view: &LegView, tolerance: f64) -> Result<(), Refusal> {
@@ -59,36 +61,72 @@ pub fn check_approach(view: &LegView, g: &Ground, tolerance: f64) -> Result<(), 
     })
 }
 
-/// A leg the robot drives alone to a stated pose: its footprint grown by the least
-/// margin a plan backs off to clear of the static map there (the planner's test of a
-/// goal). (A carry leg's
-/// footprint depends on how the rack was picked up, and a turn in place or an
+/// A leg the robot drives to a stated pose, alone or carrying: its footprint grown by
+/// the least margin a plan backs off to clear of the static map there (the planner's
+/// test of a goal). A carry leg's footprint depends on how the body was picked up: it
+/// is refused only when every pick the walk allows touches. (A turn in place or an
 /// approach is not planned to a pose: neither is tested here.)
 pub fn check_goal_clear(view: &LegView, g: &Ground) -> Result<(), Refusal> {
     let leg = view.leg;
-    if leg.goal_given.is_none() || leg.rotate || view.approached.is_some() || view.drop.is_some() {
+    if leg.goal_given.is_none() || leg.rotate || view.approached.is_some() {
         return Ok(());
     }
-    let spec = &g.robot.footprint.alone;
-    let goal = view.goal;
+    let (spec, which) = match view.drop {
+        Some(_) => (&g.robot.footprint.carrying, "carrying"),
+        None => (&g.robot.footprint.alone, "alone"),
+    };
+    let footprints = goal_footprints(view, g);
     let margin = crate::mission::least_margin(spec.margin);
-    if !aisle_global_planner::footprint_touches(&g.static_map, spec.footprint(), margin, &goal) {
+    let touches = |f: &Footprint, p: &Pose2| {
+        aisle_global_planner::footprint_touches(&g.static_map, *f, margin, p)
+    };
+    let clear = footprints
+        .iter()
+        .any(|f| view.goal_poses().any(|p| !touches(f, &p)));
+    if clear {
         return Ok(());
     }
+    let goal = view.goal;
+    let f = footprints[0];
+    let grown = if view.drop.is_some() {
+        " grown to the carried body as it sits on the robot"
+    } else {
+        ""
+    };
     Err(Refusal {
         key: format!("leg[{}].goal", view.index),
         why: format!(
             "at the goal ({}, {}, {}) of leg `{}`, the robot's footprint (robot.toml \
-             footprint.alone, {} x {} m) with the least margin a plan backs off to ({margin} \
-             m) touches occupied cells of the static map ({}: a wall, a body's legs or the \
-             map's boundary band): the planner would refuse it; move it, or turn its heading",
+             footprint.{which}{grown}, {:.3} x {:.3} m) with the least margin a plan backs \
+             off to ({margin} m) touches occupied cells of the static map ({}: a wall, a \
+             body's legs or the map's boundary band): the planner would refuse it; move it, \
+             or turn its heading",
             goal.x,
             goal.y,
             goal.theta,
             leg.name,
-            spec.length,
-            spec.width,
+            f.length,
+            f.width,
             g.map_path.display()
         ),
     })
+}
+
+/// The footprints the robot may have at the leg's goal: its own alone; carrying, the
+/// configured one grown to the carried body at each pick the walk allows.
+fn goal_footprints(view: &LegView, g: &Ground) -> Vec<Footprint> {
+    let Some((carried, _)) = &view.drop else {
+        return vec![g.robot.footprint.alone.footprint()];
+    };
+    let configured = g.robot.footprint.carrying.footprint();
+    let body = g.scene.bodies[*carried].footprint();
+    let mut out = Vec::new();
+    for pick in &view.start {
+        for at in &view.bodies[*carried] {
+            let rel = pick.inverse().compose(at);
+            let carried = crate::mission::carried_footprint(body, rel);
+            out.push(crate::mission::carrying_footprint(configured, carried));
+        }
+    }
+    out
 }

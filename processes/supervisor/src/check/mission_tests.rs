@@ -355,3 +355,22 @@ fn a_stated_heading_that_puts_the_robot_in_the_band_is_refused() {
     ))
     .unwrap();
 }
+
+#[test]
+fn a_carry_goal_that_puts_the_carried_rack_in_the_band_is_refused() {
+    // 0.5 m from the east band (x >= 14): the rack's half-length (0.44 m) and the least
+    // carrying margin (0.1 m) do not fit; 0.6 m from it they do.
+    let f = Fixture::shipped("carry-band");
+    refused(
+        &f,
+        &seed_with(DROP, "goal = [13.5, -7.0, 0.0]"),
+        &[
+            "key `leg[2].goal`",
+            "leg `carry to drop`",
+            "footprint.carrying grown to the carried body",
+            "touches occupied cells of the static map",
+        ],
+    );
+    f.check(&seed_with(DROP, "goal = [13.4, -7.0, 0.0]"))
+        .unwrap();
+}

@@ -484,7 +484,7 @@ impl Mission {
 }
 
 pub mod backoff;
-mod docking;
+pub mod docking;
 mod progress;
 
 #[cfg(test)]

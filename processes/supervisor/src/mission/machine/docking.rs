@@ -282,12 +282,9 @@ impl Mission {
     pub(super) fn carried_footprint(&self) -> Option<Footprint> {
         let name = self.spec().carry.as_deref()?;
         let body = self.body(name)?;
-        let rel = self.carried_rel.unwrap_or_default();
-        let (c, s) = (rel.theta.cos().abs(), rel.theta.sin().abs());
-        let f = body.footprint;
-        Some(Footprint::new(
-            f.length * c + f.width * s + 2.0 * rel.x.abs(),
-            f.length * s + f.width * c + 2.0 * rel.y.abs(),
+        Some(carried_footprint(
+            body.footprint,
+            self.carried_rel.unwrap_or_default(),
         ))
     }
 
@@ -295,13 +292,28 @@ impl Mission {
     pub(super) fn carrying_footprint(&self) -> Footprint {
         let configured = self.footprints.carrying;
         match self.carried_footprint() {
-            Some(f) => Footprint::new(
-                configured.length.max(f.length),
-                configured.width.max(f.width),
-            ),
+            Some(f) => carrying_footprint(configured, f),
             None => configured,
         }
     }
+}
+
+/// A carried body's rectangle `body` at `rel` (its pose in the robot frame), as a
+/// rectangle centred on the robot and axis-aligned with it.
+pub fn carried_footprint(body: Footprint, rel: Pose2) -> Footprint {
+    let (c, s) = (rel.theta.cos().abs(), rel.theta.sin().abs());
+    Footprint::new(
+        body.length * c + body.width * s + 2.0 * rel.x.abs(),
+        body.length * s + body.width * c + 2.0 * rel.y.abs(),
+    )
+}
+
+/// The footprint while carrying: `configured` (robot.toml's) grown to `carried`.
+pub fn carrying_footprint(configured: Footprint, carried: Footprint) -> Footprint {
+    Footprint::new(
+        configured.length.max(carried.length),
+        configured.width.max(carried.width),
+    )
 }
 
 fn straight(goal: Pose2, footprint: Footprint, margin: f64) -> Action {
