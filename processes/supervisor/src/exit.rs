@@ -35,8 +35,12 @@ pub fn could_not() -> ExitCode {
     ExitCode::from(COULD_NOT)
 }
 
-/// Prints `error: <e>` and returns exit code 2.
+/// Prints `error: <e>` (naming the files an assembled config was copied from) and
+/// returns exit code 2.
 pub fn fail(e: impl std::fmt::Display) -> ExitCode {
-    eprintln!("error: {e}");
+    eprintln!(
+        "error: {}",
+        crate::cli::config::name_sources(&e.to_string())
+    );
     could_not()
 }

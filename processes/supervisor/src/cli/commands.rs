@@ -1,6 +1,7 @@
 //! The small subcommands whose whole logic is a call and its exit code: `check`,
 //! `map export`, `run`.
 
+use crate::cli::config::name_sources;
 use crate::session::{self, RunOptions};
 use crate::{check, exit};
 use std::path::Path;
@@ -13,14 +14,15 @@ pub fn check(dir: &Path) -> ExitCode {
     }
     match check::check_dir(dir) {
         Ok(files) => {
+            let named = |p: &Path| name_sources(&p.display().to_string());
             for f in &files {
-                println!("ok  {}", f.display());
+                println!("ok  {}", named(f));
             }
-            println!("{} config files valid in {}", files.len(), dir.display());
+            println!("{} config files valid in {}", files.len(), named(dir));
             ExitCode::SUCCESS
         }
         Err(e) => {
-            eprintln!("error: {e}");
+            eprintln!("error: {}", name_sources(&e.to_string()));
             exit::negative()
         }
     }

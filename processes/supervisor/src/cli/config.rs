@@ -63,17 +63,30 @@ pub fn resolve(explicit: Option<&Path>) -> anyhow::Result<ConfigDir> {
         .permissions(std::fs::Permissions::from_mode(0o700))
         .tempdir()
         .context("creating a directory for the config (is TMPDIR writable?)")?;
-    match &base {
+    let mut sources = match &base {
         Base::BuiltIn => {
-            write_embedded(temp.path(), true)?;
+            let written = write_embedded(temp.path(), true)?;
+            let from = |p: &Path| {
+                let rel = p.strip_prefix(temp.path()).unwrap_or(p);
+                PathBuf::from(format!("(built-in) {}", rel.display()))
+            };
+            written
+                .into_iter()
+                .map(|p| {
+                    let source = from(&p);
+                    (p, source)
+                })
+                .collect()
         }
-        Base::Dir(dir) => {
-            overlay::copy_files(dir, temp.path())?;
-        }
-    }
+        Base::Dir(dir) => overlay::copy_files(dir, temp.path())?,
+    };
     if let Some(over) = explicit {
-        let n = overlay::copy_files(over, temp.path())?;
-        // Said on every command: an error about a config file names the assembled copy.
+        let own = overlay::copy_files(over, temp.path())?;
+        let n = own.len();
+        sources.extend(own);
+        sources.push((temp.path().to_path_buf(), over.to_path_buf()));
+        note_sources(sources);
+        // Said on every command; errors name the files it was assembled from.
         eprintln!(
             "config: {} is an overlay: its {n} files over {}, assembled in {}",
             over.display(),
@@ -88,6 +101,39 @@ pub fn resolve(explicit: Option<&Path>) -> anyhow::Result<ConfigDir> {
         path: temp.path().to_path_buf(),
         _temp: Some(temp),
     })
+}
+
+/// Each file of an assembled config directory (and the directory itself) with where it
+/// came from, the overlay's copy last: what the messages of this command name instead.
+static SOURCES: std::sync::Mutex<Vec<(PathBuf, PathBuf)>> = std::sync::Mutex::new(Vec::new());
+
+fn note_sources(mut sources: Vec<(PathBuf, PathBuf)>) {
+    // A file the overlay replaced is named after the overlay's: its copy came later.
+    let mut seen = std::collections::HashSet::new();
+    sources.reverse();
+    sources.retain(|(copy, _)| seen.insert(copy.clone()));
+    // Longest first, so a file is replaced before the directory that holds it.
+    sources.sort_by_key(|(copy, _)| std::cmp::Reverse(copy.as_os_str().len()));
+    if let Ok(mut s) = SOURCES.lock() {
+        *s = sources;
+    }
+}
+
+/// `text` with every path of an assembled config directory replaced by the file it
+/// was copied from: a user edits the overlay's file or the base's, never the private
+/// copy (removed when the command ends).
+pub fn name_sources(text: &str) -> String {
+    let Ok(sources) = SOURCES.lock() else {
+        return text.to_string();
+    };
+    let mut out = text.to_string();
+    for (copy, source) in sources.iter() {
+        let copy = copy.display().to_string();
+        if out.contains(&copy) {
+            out = out.replace(&copy, &source.display().to_string());
+        }
+    }
+    out
 }
 
 /// Writes every embedded file under `dir` (created if missing) and returns their paths.
@@ -190,6 +236,24 @@ mod tests {
         assert!(!path.join(super::overlay::OVERLAY_FILE).exists());
         assert!(!path.join("large").exists() && !path.join("growth/x4").exists());
         crate::check::check_dir(&path).unwrap();
+        // Messages name the files the copy was assembled from.
+        let said = format!(
+            "{}: bad; {}",
+            path.join("mapper.toml").display(),
+            path.join("teb.toml").display()
+        );
+        assert_eq!(
+            name_sources(&said),
+            format!(
+                "{}: bad; {}",
+                over.join("mapper.toml").display(),
+                over.join("../teb.toml").display()
+            )
+        );
+        assert_eq!(
+            name_sources(&path.display().to_string()),
+            over.display().to_string()
+        );
         // A whole config directory is used where it is.
         assert_eq!(resolve(Some(&root)).unwrap().path(), root.as_path());
         drop(dir);

@@ -64,9 +64,9 @@ pub fn base_of(dir: &Path) -> anyhow::Result<Option<Base>> {
 }
 
 /// Copies the files of `from` (recursively, `overlay.toml` left out) into `into`,
-/// replacing what is there; returns how many.
-pub fn copy_files(from: &Path, into: &Path) -> anyhow::Result<usize> {
-    let mut copied = 0;
+/// replacing what is there; returns each copy with its source.
+pub fn copy_files(from: &Path, into: &Path) -> anyhow::Result<Vec<(PathBuf, PathBuf)>> {
+    let mut copied = Vec::new();
     let entries = std::fs::read_dir(from).with_context(|| format!("reading {}", from.display()))?;
     for entry in entries {
         let path = entry
@@ -81,11 +81,11 @@ pub fn copy_files(from: &Path, into: &Path) -> anyhow::Result<usize> {
             }
             std::fs::create_dir_all(&target)
                 .with_context(|| format!("creating {}", target.display()))?;
-            copied += copy_files(&path, &target)?;
+            copied.extend(copy_files(&path, &target)?);
         } else if path.is_file() && name != OVERLAY_FILE {
             std::fs::copy(&path, &target)
                 .with_context(|| format!("copying {} to {}", path.display(), target.display()))?;
-            copied += 1;
+            copied.push((target, path));
         }
     }
     Ok(copied)
