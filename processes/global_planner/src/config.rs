@@ -17,11 +17,20 @@ pub struct PlannerConfig {
     /// Heading bins of the search's closed set (MATLAB and Nav2 use 72: 5 degrees).
     pub heading_bins: u32,
     /// Minimum length of one motion primitive (m); arcs are rounded up to a whole number
-    /// of heading bins, and never shorter than one search cell diagonal.
+    /// of heading bins, and never shorter than one search cell diagonal. At most
+    /// [`MAX_PRIMITIVE_LENGTH_M`] and a quarter turn of the tightest arc
+    /// (`pi / 2 * min_turning_radius`): a longer primitive steps over the gaps and
+    /// aisles it should enter (every request then fails), and an arc past a quarter turn
+    /// ends nowhere near where it heads.
     pub primitive_length: f64,
-    /// Cell size of the search's closed set (m); independent of the map resolution.
+    /// Cell size of the search's closed set (m); independent of the map resolution,
+    /// from [`MIN_SEARCH_RESOLUTION_M`] to [`MAX_SEARCH_RESOLUTION_M`]: finer than half the
+    /// mapper's finest cell (0.05 m) separates no poses the map tells apart and makes the
+    /// state table too large for any but a small map (every request then fails); coarser
+    /// than the robot's width merges poses on either side of an aisle.
     pub search_resolution: f64,
-    /// Cell size of the 2D obstacle heuristic (m), rounded to whole map cells.
+    /// Cell size of the 2D obstacle heuristic (m), rounded to whole map cells; at most
+    /// [`MAX_HEURISTIC_RESOLUTION_M`] (coarser cells close the aisles it must see).
     pub heuristic_resolution: f64,
     /// Cost per metre driven forward (MATLAB default 1).
     pub forward_cost: f64,
@@ -47,7 +56,10 @@ pub struct PlannerConfig {
     pub analytic_interval_per_metre: f64,
     /// How many of the cheapest analytic candidates to collision-check per attempt.
     pub analytic_candidates: u32,
-    /// Spacing of the output path poses (m); MATLAB's ValidationDistance in the seed.
+    /// Spacing of the output path poses (m); MATLAB's ValidationDistance in the seed. At
+    /// most [`MAX_VALIDATION_DISTANCE_M`] and half of `min_turning_radius`: the search
+    /// keeps the chord's sagitta (`validation_distance^2 / (8 min_turning_radius)`) as
+    /// extra clearance, which must stay a few millimetres.
     pub validation_distance: f64,
     /// Reach of one exact collision check (m): checks are spaced so that no pose between
     /// them goes unchecked, at the price of this much extra clearance near obstacles.
@@ -73,7 +85,10 @@ pub struct PlannerConfig {
     pub dock_clearance: f64,
     /// A start inside the margin (the controller keeps the margin as a soft cost):
     /// motions leaving from within this distance (m) of it keep at least the clearance
-    /// the start has, every other motion the full margin (`relief.rs`). 0: none.
+    /// the start has, every other motion the full margin (`relief.rs`). 0: none. The same
+    /// radius relieves a goal the search could not reach with its own allowance (the
+    /// sagitta and `sweep_cover` beyond the margin): motions ending or leaving within it
+    /// keep the clearance the goal has (0: only the motions that end on the goal).
     pub start_relief_radius: f64,
     /// Weighted A*: the search orders nodes by `g + heuristic_weight * h`, so a path
     /// costs at most this factor over the best the search could find, and far fewer
@@ -117,13 +132,71 @@ impl Default for PlannerConfig {
     }
 }
 
-impl Validate for PlannerConfig {
-    fn validate(&self) -> Result<(), InvalidKey> {
+/// The finest `search_resolution` (m): half the mapper's finest cell (20 cells/m).
+pub const MIN_SEARCH_RESOLUTION_M: f64 = 0.025;
+/// The coarsest `search_resolution` (m): about the robot's width (0.43 m).
+pub const MAX_SEARCH_RESOLUTION_M: f64 = 0.5;
+/// The coarsest `heuristic_resolution` (m).
+pub const MAX_HEURISTIC_RESOLUTION_M: f64 = 1.0;
+/// The longest `primitive_length` (m): four robot lengths.
+pub const MAX_PRIMITIVE_LENGTH_M: f64 = 2.0;
+/// The widest `validation_distance` (m).
+pub const MAX_VALIDATION_DISTANCE_M: f64 = 0.5;
+
+impl PlannerConfig {
+    /// The sizes of the search's grids and motions: within ranges every request can use
+    /// (outside them every request fails, so `aisle check` refuses them before launch).
+    fn validate_sizes(&self) -> Result<(), InvalidKey> {
         positive("min_turning_radius", self.min_turning_radius)?;
         in_range("heading_bins", self.heading_bins, 8, 720)?;
+        let quarter_turn = std::f64::consts::FRAC_PI_2 * self.min_turning_radius;
+        let max_primitive = MAX_PRIMITIVE_LENGTH_M.min(quarter_turn);
         positive("primitive_length", self.primitive_length)?;
-        positive("search_resolution", self.search_resolution)?;
+        if self.primitive_length > max_primitive {
+            return Err(InvalidKey::new(
+                "primitive_length",
+                format!(
+                    "must be at most {max_primitive:.3} m ({MAX_PRIMITIVE_LENGTH_M} m, and a \
+                     quarter turn of min_turning_radius), got {}",
+                    self.primitive_length
+                ),
+            ));
+        }
+        in_range(
+            "search_resolution",
+            self.search_resolution,
+            MIN_SEARCH_RESOLUTION_M,
+            MAX_SEARCH_RESOLUTION_M,
+        )?;
         positive("heuristic_resolution", self.heuristic_resolution)?;
+        if self.heuristic_resolution > MAX_HEURISTIC_RESOLUTION_M {
+            return Err(InvalidKey::new(
+                "heuristic_resolution",
+                format!(
+                    "must be at most {MAX_HEURISTIC_RESOLUTION_M} m, got {}",
+                    self.heuristic_resolution
+                ),
+            ));
+        }
+        let max_spacing = MAX_VALIDATION_DISTANCE_M.min(0.5 * self.min_turning_radius);
+        positive("validation_distance", self.validation_distance)?;
+        if self.validation_distance > max_spacing {
+            return Err(InvalidKey::new(
+                "validation_distance",
+                format!(
+                    "must be at most {max_spacing:.3} m ({MAX_VALIDATION_DISTANCE_M} m, and \
+                     half of min_turning_radius), got {}",
+                    self.validation_distance
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl Validate for PlannerConfig {
+    fn validate(&self) -> Result<(), InvalidKey> {
+        self.validate_sizes()?;
         at_least("forward_cost", self.forward_cost, 1.0)?;
         at_least("reverse_cost", self.reverse_cost, 1.0)?;
         at_least("direction_switch_cost", self.direction_switch_cost, 0.0)?;
@@ -147,7 +220,6 @@ impl Validate for PlannerConfig {
             0.0,
         )?;
         in_range("analytic_candidates", self.analytic_candidates, 1, 48)?;
-        positive("validation_distance", self.validation_distance)?;
         positive("sweep_cover", self.sweep_cover)?;
         if self.sweep_cover > 0.5 * self.validation_distance {
             return Err(InvalidKey::new(
@@ -211,5 +283,62 @@ mod tests {
         assert_eq!(c.validate().unwrap_err().key, "min_turning_radius");
         let typo = aisle_config::parse::<PlannerConfig>(Path::new("x.toml"), "heading_binz = 3\n");
         assert!(typo.is_err());
+    }
+
+    /// Sizes no request can use are refused by key, with the file named when loaded.
+    #[test]
+    fn sizes_outside_their_ranges_are_refused() {
+        let bad = |c: PlannerConfig| c.validate().unwrap_err().key;
+        let d = PlannerConfig::default;
+        for v in [0.001, 0.02, 0.6, f64::NAN, f64::INFINITY] {
+            let c = PlannerConfig {
+                search_resolution: v,
+                ..d()
+            };
+            assert_eq!(bad(c), "search_resolution", "{v}");
+        }
+        for v in [50.0, 2.5, 1.6, f64::NAN, 0.0] {
+            let c = PlannerConfig {
+                primitive_length: v,
+                ..d()
+            };
+            assert_eq!(bad(c), "primitive_length", "{v}");
+        }
+        // A quarter turn of a tighter radius bounds it further.
+        let tight = PlannerConfig {
+            min_turning_radius: 0.5,
+            primitive_length: 0.8,
+            ..d()
+        };
+        assert_eq!(bad(tight), "primitive_length");
+        let coarse = PlannerConfig {
+            heuristic_resolution: 2.0,
+            ..d()
+        };
+        assert_eq!(bad(coarse), "heuristic_resolution");
+        let wide = PlannerConfig {
+            validation_distance: 0.6,
+            sweep_cover: 0.03,
+            ..d()
+        };
+        assert_eq!(bad(wide), "validation_distance");
+        // The ends of the ranges are accepted.
+        for (s, p) in [(0.025, 1.5), (0.5, 2.0)] {
+            let c = PlannerConfig {
+                search_resolution: s,
+                primitive_length: p,
+                min_turning_radius: 2.0,
+                ..d()
+            };
+            c.validate().unwrap();
+        }
+        let loaded = aisle_config::parse::<PlannerConfig>(
+            Path::new("planner.toml"),
+            "search_resolution = 0.001\n",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(loaded.contains("planner.toml"), "{loaded}");
+        assert!(loaded.contains("search_resolution"), "{loaded}");
     }
 }

@@ -26,6 +26,10 @@ pub struct PlanStats {
     /// The margin (m) kept near a start that stands inside the full one (`relief.rs`);
     /// `None` when the start keeps the full margin.
     pub start_relief: Option<f64>,
+    /// The margin (m) kept near a goal the search could not reach with the full one
+    /// (within its sagitta and sweep cover of an obstacle, `relief.rs`); `None` when it
+    /// can.
+    pub goal_relief: Option<f64>,
 }
 
 /// What was wrong with a request.

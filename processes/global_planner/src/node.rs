@@ -233,7 +233,7 @@ impl Stage for PlannerStage {
         })?;
         match &result {
             Ok(plan) => tracing::info!(
-                "global_planner: request {}: {:.2} m in {} poses, {} expansions, {:.1} ms{}",
+                "global_planner: request {}: {:.2} m in {} poses, {} expansions, {:.1} ms{}{}",
                 req.request_id,
                 plan.stats.path_length,
                 plan.path.len(),
@@ -241,6 +241,10 @@ impl Stage for PlannerStage {
                 solve_ns as f64 / 1e6,
                 match plan.stats.start_relief {
                     Some(m) => format!("; the start is inside the margin: {m:.3} m kept near it"),
+                    None => String::new(),
+                },
+                match plan.stats.goal_relief {
+                    Some(m) => format!("; the goal is beside an obstacle: {m:.3} m kept near it"),
                     None => String::new(),
                 }
             ),

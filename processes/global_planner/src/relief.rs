@@ -1,4 +1,5 @@
-//! Start relief: the clearance a path keeps near a start that stands inside the margin.
+//! Relief: the clearance a path keeps near a start or a goal that stands inside the
+//! search's allowance.
 //!
 //! The controller keeps the margin as a soft cost, so a robot can stop a few millimetres
 //! inside it (a detour around an obstacle found late). A request from there used to fail
@@ -9,6 +10,17 @@
 //! `start_relief_radius` of the start keep at least the clearance the start has (to
 //! 1 mm), and every other motion the full margin. A start with the full margin gets no
 //! relief, so the rule changes nothing for it.
+//!
+//! The goal needs the same rule for another reason. A goal is accepted when the
+//! footprint with the margin is free there (exactly), but the search holds every pose to
+//! the margin plus the interpolation sagitta plus `sweep_cover` (3.2 cm with the shipped
+//! settings): a goal accepted beside a wall with less than that to spare could not be
+//! reached by any motion, and the search spent its whole expansion budget before it
+//! failed. So motions that end (or leave from) within `start_relief_radius` of such a
+//! goal keep the clearance the goal has, less the sagitta and a short reach (at worst
+//! 7 mm below the margin, and only beside a goal that sits at the margin), checked with
+//! the short reach; others keep the full margin. A goal the search can reach as it is
+//! gets no relief.
 //!
 //! Knows footprints, the distance map and the checkers; nothing of search or requests.
 
@@ -34,7 +46,8 @@ pub(crate) struct Sizes {
     pub sagitta: f64,
     /// Reach (m) of one exact check (`sweep_cover`).
     pub cover: f64,
-    /// `start_relief_radius` (m); 0: no relief.
+    /// `start_relief_radius` (m); 0: no relief at the start, and at the goal only for
+    /// the motions that end on it.
     pub radius: f64,
 }
 
@@ -54,8 +67,7 @@ pub(crate) fn checks<'a>(dm: &'a DistanceMap, s: &Sizes, start: &Pose2) -> Optio
     let checker = |m: f64, cover: f64| FootprintChecker::new(dm, s.footprint.inflated(m), cover);
     let search = checker(s.margin + s.sagitta, s.cover);
     let output = checker(s.margin, s.cover);
-    let first_check_passes = checker(s.margin + s.sagitta + s.cover, s.cover).pose_free(start);
-    if s.radius <= 0.0 || first_check_passes {
+    if s.radius <= 0.0 || search_reaches(dm, s, start) {
         return output.pose_free(start).then(|| Checks {
             search: Clearance::full(search),
             output: Clearance::full(output),
@@ -66,62 +78,151 @@ pub(crate) fn checks<'a>(dm: &'a DistanceMap, s: &Sizes, start: &Pose2) -> Optio
     let near_search = checker(kept + s.sagitta, RELIEF_COVER_M);
     let near_output = checker(kept, RELIEF_COVER_M);
     Some(Checks {
-        search: Clearance::with_relief(search, near_search, *start, s.radius),
-        output: Clearance::with_relief(output, near_output, *start, s.radius),
+        search: Clearance::with_relief(search, near_search, *start, s.radius, kept),
+        output: Clearance::with_relief(output, near_output, *start, s.radius, kept),
         kept: Some(kept),
     })
 }
 
+/// Whether the search's first check (the margin, the sagitta and the full reach) passes
+/// at `pose`: a start or goal where it does needs no relief.
+fn search_reaches(dm: &DistanceMap, s: &Sizes, pose: &Pose2) -> bool {
+    let grown = s.footprint.inflated(s.margin + s.sagitta + s.cover);
+    FootprintChecker::new(dm, grown, s.cover).pose_free(pose)
+}
+
+/// What a goal the output's margin accepts (`Clearance::full_checker().pose_free`)
+/// asks of the checks.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum GoalRelief {
+    /// The search reaches it with the full margin.
+    None,
+    /// Motions near it keep this margin (m).
+    Kept(f64),
+    /// Not even the bare footprint keeps the sagitta and the short reach there (only
+    /// with a margin below them): no motion could be proven to reach it.
+    Unreachable,
+}
+
+impl<'a> Checks<'a> {
+    /// Relieves both checks near `goal` when the search's first check fails there:
+    /// motions ending (or leaving) within the relief radius keep the margin the goal
+    /// has (less the sagitta and the short reach), checked with the short reach.
+    pub(crate) fn relieve_goal(
+        &mut self,
+        dm: &'a DistanceMap,
+        s: &Sizes,
+        goal: &Pose2,
+    ) -> GoalRelief {
+        if search_reaches(dm, s, goal) {
+            return GoalRelief::None;
+        }
+        let extra = s.sagitta + RELIEF_COVER_M;
+        let Some(kept) = start_margin(dm, s.footprint, s.margin, extra, goal) else {
+            return GoalRelief::Unreachable;
+        };
+        let checker = |m: f64| FootprintChecker::new(dm, s.footprint.inflated(m), RELIEF_COVER_M);
+        let relief = |checker| Relief {
+            checker,
+            centre: *goal,
+            radius: s.radius,
+            kept,
+        };
+        self.search.goal = Some(relief(checker(kept + s.sagitta)));
+        self.output.goal = Some(relief(checker(kept)));
+        GoalRelief::Kept(kept)
+    }
+}
+
 /// The checks a path is held to: the full margin, except for motions that leave from
-/// near a start standing inside it.
+/// near a start standing inside it, or end (or leave) near a goal the search could not
+/// reach with it.
 pub(crate) struct Clearance<'a> {
     full: FootprintChecker<'a>,
-    relief: Option<Relief<'a>>,
+    start: Option<Relief<'a>>,
+    goal: Option<Relief<'a>>,
 }
 
 struct Relief<'a> {
     checker: FootprintChecker<'a>,
-    start: Pose2,
+    centre: Pose2,
     radius: f64,
+    /// The margin (m) `checker` keeps (before the sagitta).
+    kept: f64,
+}
+
+impl Relief<'_> {
+    /// Whether `p` is within a goal's relief; the 1 um tolerance takes in the end of a
+    /// motion that lands on the goal (within round-off of it) when the radius is 0.
+    #[inline]
+    fn near(&self, p: &Pose2) -> bool {
+        p.distance(&self.centre) <= self.radius + 1e-6
+    }
 }
 
 impl<'a> Clearance<'a> {
     /// `full` alone: every motion keeps the full margin.
     pub(crate) fn full(full: FootprintChecker<'a>) -> Self {
-        Self { full, relief: None }
+        Self {
+            full,
+            start: None,
+            goal: None,
+        }
     }
 
-    /// `full`, and `relief` for motions leaving within `radius` of `start`.
+    /// `full`, and `relief` (which keeps `kept`) for motions leaving within `radius`
+    /// of `start`.
     pub(crate) fn with_relief(
         full: FootprintChecker<'a>,
         relief: FootprintChecker<'a>,
         start: Pose2,
         radius: f64,
+        kept: f64,
     ) -> Self {
         let relief = Relief {
             checker: relief,
-            start,
+            centre: start,
             radius,
+            kept,
         };
         Self {
             full,
-            relief: Some(relief),
+            start: Some(relief),
+            goal: None,
         }
     }
 
-    /// The checker a motion leaving `from` is held to.
+    /// The checker `motion` from `from` is held to: a relief's where one applies (the
+    /// laxer where both do), else the full margin's.
     #[inline]
-    fn for_motion_from(&self, from: &Pose2) -> &FootprintChecker<'a> {
-        match &self.relief {
-            Some(r) if from.distance(&r.start) <= r.radius => &r.checker,
-            _ => &self.full,
+    fn for_motion(&self, from: &Pose2, motion: &Motion) -> &FootprintChecker<'a> {
+        let start = self
+            .start
+            .as_ref()
+            .filter(|r| from.distance(&r.centre) <= r.radius);
+        // The end is computed only beside a relieved goal.
+        let goal = self
+            .goal
+            .as_ref()
+            .filter(|r| r.near(from) || r.near(&motion.end(from)));
+        match (start, goal) {
+            (Some(s), Some(g)) if g.kept < s.kept => &g.checker,
+            (Some(r), _) | (None, Some(r)) => &r.checker,
+            (None, None) => &self.full,
         }
     }
 
     /// Whether `motion` from `from` is free under the check that applies to it.
     #[inline]
     pub(crate) fn motion_free(&self, from: &Pose2, motion: &Motion, probes: &mut u64) -> bool {
-        self.for_motion_from(from).motion_free(from, motion, probes)
+        self.for_motion(from, motion)
+            .motion_free(from, motion, probes)
+    }
+
+    /// Whether the footprint is free at `p` (exactly, no reach) under the margin that
+    /// `motion` from `from`, which passes `p`, is held to.
+    pub(crate) fn pose_free_on(&self, from: &Pose2, motion: &Motion, p: &Pose2) -> bool {
+        self.for_motion(from, motion).pose_free(p)
     }
 
     /// The full-margin checker (its circumscribed radius sizes rotation steps).

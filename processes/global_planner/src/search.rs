@@ -29,7 +29,7 @@ use crate::error::{InvalidInput, PlanError, PlanErrorKind, PlanStats};
 use crate::heuristic::GridHeuristic;
 use crate::model::Model;
 use crate::motion::Motion;
-use crate::relief::{self, Clearance};
+use crate::relief::{self, Clearance, GoalRelief};
 use crate::search_core::{Buffers, Search};
 use crate::smooth::{SmoothParams, smooth_path};
 use crate::states::SearchGrid;
@@ -184,7 +184,6 @@ impl Planner {
 
         let cfg = &self.cfg;
         let model = &self.model;
-        let body = req.footprint.inflated(req.margin);
         // The search keeps a little more clearance than the output needs: output poses are
         // joined by straight interpolation, which leaves the arcs by at most the sagitta.
         let sagitta = cfg.validation_distance.powi(2) / (8.0 * model.radius) + 1e-3;
@@ -203,24 +202,7 @@ impl Planner {
             cover: cfg.sweep_cover,
             radius: cfg.start_relief_radius,
         };
-        let Some(relief::Checks {
-            search: checker,
-            output,
-            kept,
-        }) = relief::checks(&self.dm, &sizes, &start)
-        else {
-            return Err(PlanErrorKind::StartOccupied);
-        };
-        stats.start_relief = kept;
-        if !output.full_checker().pose_free(&goal) {
-            return Err(PlanErrorKind::GoalOccupied);
-        }
-        // A relieved start may lie where the full margin's inscribed circle does not fit:
-        // the heuristic then uses the start's (a lower bound still).
-        let radius = match stats.start_relief {
-            Some(m) => req.footprint.inflated(m).inscribed_radius(),
-            None => body.inscribed_radius(),
-        };
+        let (checker, output, radius) = request_checks(&self.dm, &sizes, &start, &goal, stats)?;
         // A small map is searched whole (which also counts the cells the goal can be
         // reached from); a large one as far as the queries need.
         let eager = map.width * map.height <= EAGER_CELLS && !self.lazy_only;
@@ -266,7 +248,41 @@ impl Planner {
     }
 }
 
-/// The returned path: the traced `buf.raw`, smoothed if configured, and swept again by
+/// The search's and the output's checks for a request (relieved near a start or a goal
+/// inside the search's allowance, `relief.rs`), noted in `stats`, and the inscribed
+/// radius its heuristic uses.
+fn request_checks<'a>(
+    dm: &'a DistanceMap,
+    sizes: &relief::Sizes,
+    start: &Pose2,
+    goal: &Pose2,
+    stats: &mut PlanStats,
+) -> Result<(Clearance<'a>, Clearance<'a>, f64), PlanErrorKind> {
+    let Some(mut checks) = relief::checks(dm, sizes, start) else {
+        return Err(PlanErrorKind::StartOccupied);
+    };
+    stats.start_relief = checks.kept;
+    if !checks.output.full_checker().pose_free(goal) {
+        return Err(PlanErrorKind::GoalOccupied);
+    }
+    stats.goal_relief = match checks.relieve_goal(dm, sizes, goal) {
+        GoalRelief::None => None,
+        GoalRelief::Kept(m) => Some(m),
+        GoalRelief::Unreachable => return Err(PlanErrorKind::GoalOccupied),
+    };
+    // A relieved start (or poses near a relieved goal) may lie where the full margin's
+    // inscribed circle does not fit: the heuristic then uses the least margin kept (a
+    // lower bound still).
+    let margin = sizes.margin;
+    let least = stats
+        .start_relief
+        .unwrap_or(margin)
+        .min(stats.goal_relief.unwrap_or(margin));
+    let radius = sizes.footprint.inflated(least).inscribed_radius();
+    Ok((checks.search, checks.output, radius))
+}
+
+/// The returned path: the traced `buf.raw`, smoothed if configured, and checked again by
 /// the output checker; the unsmoothed path if only the smoothed one fails.
 fn output_path(
     cfg: &PlannerConfig,
@@ -280,8 +296,21 @@ fn output_path(
             .windows(2)
             .all(|w| output.motion_free(&w[0].pose, &Motion::Lerp { to: w[1].pose }, probes))
     };
+    // The traced poses lie on the search's motions, which it swept with the sagitta to
+    // spare: that holds the straight joins between them to the margin. Sweeping the joins
+    // again demanded `sweep_cover` of clearance beyond the margin at the output's own
+    // samples, more than the search proves between its samples, and refused paths it had
+    // found (request 4 of config/large, `ValidationFailed`). So the traced poses are
+    // checked exactly, each under the margin its motion was held to (a relieved motion
+    // may reach beyond its relief).
+    let poses_ok = |poses: &[PathPose], first: usize| {
+        poses.iter().enumerate().all(|(i, p)| {
+            let (from, motion) = &buf.traced[buf.raw_motion[first + i] as usize];
+            output.pose_free_on(from, motion, &p.pose)
+        })
+    };
     let mut path = buf.raw.clone();
-    let checked = &mut buf.checked;
+    let mut checked = std::mem::take(&mut buf.checked);
     if cfg.smoothing {
         let params = SmoothParams {
             weight_data: cfg.smoothing_weight_data,
@@ -290,28 +319,29 @@ fn output_path(
             radius,
         };
         let probes = &mut stats.collision_probes;
-        stats.smoothed = smooth_path(&mut path, &params, &mut buf.smooth_scratch, checked, |s| {
+        let scratch = &mut buf.smooth_scratch;
+        stats.smoothed = smooth_path(&mut path, &params, scratch, &mut checked, |s| {
             sweep_ok(s, probes)
         });
     } else {
         checked.clear();
     }
-    // Every stretch the smoothing kept passed this very sweep as it stands; the rest (the
-    // traced motions, checked by the search's stricter checker) is swept here.
-    // Stretches share their end poses: each gap runs from the last pose of one checked
-    // stretch to the first of the next.
-    let probes = &mut stats.collision_probes;
+    // Every stretch the smoothing kept passed the sweep as it stands; the rest holds traced
+    // poses. Stretches share their end poses: each gap runs from the last pose of one
+    // checked stretch to the first of the next.
     let mut from = 0;
     let mut rest_ok = true;
     for r in checked.iter() {
-        rest_ok = rest_ok && sweep_ok(&path[from..=r.start], probes);
+        rest_ok = rest_ok && poses_ok(&path[from..=r.start], from);
         from = r.end - 1;
     }
-    rest_ok = rest_ok && sweep_ok(&path[from..], probes);
+    rest_ok = rest_ok && poses_ok(&path[from..], from);
+    let raw_ok = rest_ok || (stats.smoothed && poses_ok(&buf.raw, 0));
+    buf.checked = checked;
+    if !raw_ok {
+        return Err(PlanErrorKind::ValidationFailed);
+    }
     if !rest_ok {
-        if !stats.smoothed || !sweep_ok(&buf.raw, &mut stats.collision_probes) {
-            return Err(PlanErrorKind::ValidationFailed);
-        }
         path.clone_from(&buf.raw);
         stats.smoothed = false;
     }

@@ -13,7 +13,7 @@ use crate::distance_map::DistanceMap;
 use crate::error::{PlanErrorKind, PlanStats};
 use crate::heuristic::GridHeuristic;
 use crate::model::{DIR_NONE, Model, Shot};
-use crate::motion::pose_bits;
+use crate::motion::{Motion, pose_bits};
 use crate::reeds_shepp::Candidates;
 use crate::relief::Clearance;
 use crate::sampling::{append_motion, finish};
@@ -87,6 +87,10 @@ pub(crate) struct Buffers {
     /// The output path's stretches the smoothing kept, collision-checked already.
     pub(crate) checked: Vec<std::ops::Range<usize>>,
     pub(crate) raw: Vec<PathPose>,
+    /// For every pose of `raw`, the index in `traced` of the motion it lies on.
+    pub(crate) raw_motion: Vec<u32>,
+    /// The motions `raw` was sampled from, each with the pose it leaves from.
+    pub(crate) traced: Vec<(Pose2, Motion)>,
 }
 
 /// One request's search: what it reads (configuration, model, state numbering, distance
@@ -457,20 +461,26 @@ impl Buffers {
             i = self.nodes[i as usize].parent;
         }
         self.raw.clear();
+        self.traced.clear();
         for w in self.chain.windows(2).rev() {
             let (child, parent) = (&self.nodes[w[0] as usize], &self.nodes[w[1] as usize]);
-            let m = model.prims[child.prim as usize];
-            append_motion(&mut self.raw, &parent.pose, &m, spacing, rot);
+            self.traced
+                .push((parent.pose, model.prims[child.prim as usize]));
         }
         let mut pose = self.nodes[last].pose;
         for m in shot.motions() {
-            append_motion(&mut self.raw, &pose, m, spacing, rot);
+            self.traced.push((pose, *m));
             pose = m.end(&pose);
         }
-        if self.raw.is_empty() {
-            self.raw
-                .push(PathPose::new(pose, aisle_geometry::Direction::Forward));
+        if self.traced.is_empty() {
+            self.traced.push((pose, Motion::Rotate { angle: 0.0 }));
+        }
+        self.raw_motion.clear();
+        for (k, (from, m)) in self.traced.iter().enumerate() {
+            append_motion(&mut self.raw, from, m, spacing, rot);
+            self.raw_motion.resize(self.raw.len(), k as u32);
         }
         finish(&mut self.raw, pose);
+        self.raw_motion.push(self.traced.len() as u32 - 1);
     }
 }

@@ -614,9 +614,11 @@ pub(crate) fn stream(mut seed: u64) -> impl FnMut(i64) -> i64 {
 }
 
 mod bound;
+mod goal_wall;
 mod golden;
 mod lazy;
 mod relief;
+mod validation;
 
 /// The budget grows with the area the goal can be reached from: a request whose own
 /// budget is far too small for its detour still finds the path, and the expansions it
