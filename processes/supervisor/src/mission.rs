@@ -13,7 +13,7 @@ mod events;
 mod machine;
 
 pub use config::{LegSpec, MissionConfig};
-pub use events::{Action, ControllerReport, Dock, DockBody, PlanFailure, Planned};
+pub use events::{Action, ControllerReport, Dock, DockBody, LegResult, PlanFailure, Planned};
 pub use machine::backoff::least_margin;
 pub use machine::docking::{carried_footprint, carrying_footprint};
-pub use machine::{Footprints, LegResult, Mission, NamedBody};
+pub use machine::{Footprints, Mission, NamedBody};

@@ -128,8 +128,16 @@ impl RunReport {
             ));
         }
         for (i, l) in self.legs.iter().enumerate() {
+            // Said only when a plan failed: most legs plan once or replan cleanly.
+            let mut failed = String::new();
+            if l.plan_failures + l.margin_backoffs > 0 {
+                failed = format!(
+                    ", plan failures {}, margin backoffs {}",
+                    l.plan_failures, l.margin_backoffs
+                );
+            }
             out.push_str(&format!(
-                "  leg {} {:<14} {:<8} {:6.1} s -> {:6.1} s  error {:.3} m {:.3} rad  replans {}\n",
+                "  leg {} {:<14} {:<8} {:6.1} s -> {:6.1} s  error {:.3} m {:.3} rad  replans {}{failed}\n",
                 i + 1,
                 l.name,
                 if l.reached { "reached" } else { "failed" },

@@ -3,6 +3,24 @@
 //! carry out). Plain data: no bus, no message layouts.
 
 use aisle_geometry::{Footprint, PathPose, Pose2};
+use serde::{Deserialize, Serialize};
+
+/// Per-leg outcome for reports.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct LegResult {
+    pub name: String,
+    pub reached: bool,
+    pub start_s: f64,
+    pub end_s: f64,
+    pub replans: u32,
+    /// Plans that failed and were not retried with less margin.
+    pub plan_failures: u32,
+    /// Plans that failed because of the margin and were asked again with less of it.
+    #[serde(default)]
+    pub margin_backoffs: u32,
+    pub final_error_m: f64,
+    pub final_heading_error_rad: f64,
+}
 
 /// A body the robot drives under or out of, in the map frame: its footprint and the
 /// parts of it the robot can hit (a rack's legs).

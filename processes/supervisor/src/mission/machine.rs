@@ -7,9 +7,8 @@
 //! [`Action`]s. It knows nothing of the bus, of clocks or of processes.
 
 use super::config::{LegSpec, MissionConfig};
-use super::events::{Action, ControllerReport, DockBody, PlanFailure, Planned};
+use super::events::{Action, ControllerReport, DockBody, LegResult, PlanFailure, Planned};
 use aisle_geometry::{Footprint, PathPose, Pose2};
-use serde::{Deserialize, Serialize};
 
 /// The smallest fraction of the margin a backing-off plan keeps (two halvings).
 const MIN_MARGIN_SCALE: f64 = 0.25;
@@ -79,19 +78,6 @@ enum Phase {
     Failed,
 }
 
-/// Per-leg outcome for reports.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct LegResult {
-    pub name: String,
-    pub reached: bool,
-    pub start_s: f64,
-    pub end_s: f64,
-    pub replans: u32,
-    pub plan_failures: u32,
-    pub final_error_m: f64,
-    pub final_heading_error_rad: f64,
-}
-
 /// One mission in progress: the current leg, its phase and counters, and what the
 /// finished legs left behind (results, reference paths).
 pub struct Mission {
@@ -103,6 +89,7 @@ pub struct Mission {
     leg_start_s: f64,
     replans: u32,
     plan_failures: u32,
+    margin_backoffs: u32,
     cooldown: u32,
     carrying: bool,
     /// The body the robot stands under (picked up next, or just set down), where it
@@ -141,6 +128,7 @@ impl Mission {
             leg_start_s: 0.0,
             replans: 0,
             plan_failures: 0,
+            margin_backoffs: 0,
             cooldown: 0,
             carrying: false,
             under: None,
@@ -227,6 +215,7 @@ impl Mission {
         self.leg_start_s = now_s;
         self.replans = 0;
         self.plan_failures = 0;
+        self.margin_backoffs = 0;
         self.cooldown = 0;
         self.has_reference = false;
         self.stage = Stage::Path;
@@ -294,6 +283,7 @@ impl Mission {
                 // the path leads out of the margin the robot stands in, or through a
                 // gap the footprint fits with less of it.
                 self.margin_scale = (0.5 * self.margin_scale).max(MIN_MARGIN_SCALE);
+                self.margin_backoffs += 1;
                 tracing::info!(
                     "t = {now_s:.1} s: {}; planning with {:.0} % of the margin",
                     failure.why,
@@ -436,6 +426,7 @@ impl Mission {
             end_s: now_s,
             replans: self.replans,
             plan_failures: self.plan_failures,
+            margin_backoffs: self.margin_backoffs,
             final_error_m: pose.distance(&goal),
             final_heading_error_rad: self.heading_error(&pose, &goal),
         });

@@ -416,6 +416,9 @@ fn a_start_inside_the_margin_backs_off_with_a_smaller_margin_then_fails() {
     // leg (it had no reference yet).
     assert_eq!(m.on_plan(0.0, p, Err(blocked())), vec![Action::Halt]);
     assert!(m.failure().unwrap().contains("start is in collision"));
+    // The report counts both: one retry with less margin, one failure.
+    let leg = &m.results[0];
+    assert_eq!((leg.margin_backoffs, leg.plan_failures), (1, 1), "{leg:?}");
 }
 
 #[test]
