@@ -8,6 +8,7 @@
 //! path before it launches anything.
 
 pub mod arrival;
+pub mod external;
 pub mod goals;
 pub mod legs;
 #[cfg(test)]
@@ -86,8 +87,9 @@ pub fn check_dir(dir: &Path) -> Result<Vec<PathBuf>, String> {
     // The graph is optional in a config directory (the shipped one stands in).
     let graph = aisle_node::graph::path_in(dir);
     if graph.exists() {
-        aisle_node::Graph::load(&graph).map_err(|e| e.to_string())?;
+        let loaded = aisle_node::Graph::load(&graph).map_err(|e| e.to_string())?;
         checked.push(graph);
+        checked.extend(external::check(dir, &loaded)?);
     }
     // So is realtime.toml (absent: every option off).
     let realtime_file = aisle_node::realtime::path_in(dir);
@@ -114,7 +116,7 @@ pub fn check_dir(dir: &Path) -> Result<Vec<PathBuf>, String> {
             && !known.iter().any(|k| Some(k.as_os_str()) == p.file_name())
         {
             return Err(format!(
-                "{}: not a file aisle reads (expected warehouse, robot, lidar, mapper, planner, teb, mission, budgets, restart, graph, realtime, hosts .toml)",
+                "{}: not a file aisle reads (expected warehouse, robot, lidar, mapper, planner, teb, mission, budgets, restart, graph, realtime, hosts .toml, or <node>.toml for a node of graph.toml's own)",
                 p.display()
             ));
         }

@@ -57,15 +57,19 @@ pub struct LaunchSpec {
 
 impl LaunchSpec {
     /// The command that starts `kind`: this binary as `aisle node <name>`, or an
-    /// external node's own program, run in the config directory (so the graph's
-    /// relative paths are relative to the graph file) with the instance in its
-    /// environment.
+    /// external node's own program, run in the directory of the graph file (the
+    /// user's, for an overlay: so the graph's relative paths are relative to it) with
+    /// the instance in its environment.
     fn command(&self, kind: NodeKind, restarted: bool) -> Command {
         if let Some(argv) = self.external.get(&kind) {
-            // A path (not a name looked up on PATH) is relative to the graph's directory.
+            // A path (not a name looked up on PATH) is relative to the graph's directory:
+            // where the user's graph.toml is, not an overlay's assembled copy of it.
+            let graph =
+                crate::cli::config::source_of(&aisle_node::graph::path_in(&self.config_dir));
+            let graph_dir = graph.parent().unwrap_or(&self.config_dir).to_path_buf();
             let program = std::path::Path::new(&argv[0]);
             let mut cmd = if argv[0].contains('/') && program.is_relative() {
-                Command::new(self.config_dir.join(program))
+                Command::new(graph_dir.join(program))
             } else {
                 Command::new(program)
             };
@@ -79,7 +83,7 @@ impl LaunchSpec {
                 controller_every: self.controller_every,
             };
             cmd.args(&argv[1..])
-                .current_dir(&self.config_dir)
+                .current_dir(&graph_dir)
                 .envs(env.vars());
             return cmd;
         }
@@ -178,9 +182,13 @@ impl ProcessGroup {
                 Ok(())
             });
         }
-        let mut child = cmd
-            .spawn()
-            .map_err(|e| format!("cannot start {}: {e}", kind.name()))?;
+        let mut child = cmd.spawn().map_err(|e| {
+            format!(
+                "cannot start {} ({}): {e}",
+                kind.name(),
+                std::path::Path::new(cmd.get_program()).display()
+            )
+        })?;
         if let Some(err) = child.stderr.take() {
             let lines = Arc::clone(&self.last_lines);
             // Forward the node's stderr and remember its last line, so that a node that

@@ -119,6 +119,20 @@ fn note_sources(mut sources: Vec<(PathBuf, PathBuf)>) {
     }
 }
 
+/// The file `path` (in an assembled config directory) was copied from; `path` itself
+/// when it is no copy.
+pub fn source_of(path: &Path) -> PathBuf {
+    SOURCES
+        .lock()
+        .ok()
+        .and_then(|s| {
+            s.iter()
+                .find(|(copy, _)| copy == path)
+                .map(|(_, source)| source.clone())
+        })
+        .unwrap_or_else(|| path.to_path_buf())
+}
+
 /// `text` with every path of an assembled config directory replaced by the file it
 /// was copied from: a user edits the overlay's file or the base's, never the private
 /// copy (removed when the command ends).
