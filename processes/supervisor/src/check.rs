@@ -53,7 +53,7 @@ impl ConfigFiles {
         }
     }
 
-    fn all(&self) -> [&Path; 9] {
+    pub fn all(&self) -> [&Path; 9] {
         [
             &self.scene,
             &self.robot,

@@ -24,8 +24,9 @@ Exit codes (every subcommand):
      a timeout), `check` found an invalid config, `replay --check` diverged,
      `instance` found no live instance
   2  could not do what was asked: usage error, unreadable or invalid input (config,
-     mission, record), output path not writable, setup failure, damaged record,
-     the group could not run or was interrupted";
+     mission, record), output path not writable or naming an input or another
+     output, setup failure, damaged record, the group could not run or was
+     interrupted";
 
 pub fn negative() -> ExitCode {
     ExitCode::from(NEGATIVE)

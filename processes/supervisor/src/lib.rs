@@ -31,6 +31,7 @@ pub mod cli;
 pub mod collisions;
 pub mod exit;
 pub mod export_cli;
+pub mod file_roles;
 pub mod gen_cli;
 pub mod host_cli;
 pub mod inspect_cli;

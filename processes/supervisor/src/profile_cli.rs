@@ -30,6 +30,20 @@ pub struct ProfileArgs {
 }
 
 pub fn profile(a: &ProfileArgs) -> ExitCode {
+    let outputs = [
+        ("--json", &a.json),
+        ("--samples", &a.samples),
+        ("--svg", &a.svg),
+    ];
+    let outputs: Vec<(&str, &std::path::Path)> = outputs
+        .into_iter()
+        .filter_map(|(flag, p)| Some((flag, p.as_deref()?)))
+        .collect();
+    let mut inputs = vec![("the record", a.file.as_path())];
+    inputs.extend(a.budgets.as_deref().map(|b| ("--budgets", b)));
+    if let Err(e) = crate::file_roles::distinct(&inputs, &outputs) {
+        return crate::exit::fail(e);
+    }
     let budgets = match &a.budgets {
         Some(p) => match aisle_config::load::<Budgets>(p) {
             Ok(b) => Some(b),

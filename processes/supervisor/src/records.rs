@@ -306,6 +306,9 @@ pub fn render(file: &Path, out: &Path, pixels_per_metre: f64, band_every: usize)
             "--pixels-per-metre must be within 1..=200, got {pixels_per_metre}"
         ));
     }
+    if let Err(e) = crate::file_roles::distinct(&[("the record", file)], &[("-o", out)]) {
+        return fail(e);
+    }
     let opts = aisle_tools::render::RenderOptions {
         pixels_per_metre,
         band_every,

@@ -49,10 +49,28 @@ impl RunConfig {
                 record = None;
             }
         }
+        // The live view's port, before launch: a recorder that cannot listen exits, and
+        // the record it would have written is lost with it.
+        if let Some(addr) = opts.foxglove {
+            std::net::TcpListener::bind(addr)
+                .map_err(|e| anyhow!("--foxglove {addr}: cannot listen there: {e}"))?;
+        }
         let files = ConfigFiles::in_dir(&opts.config_dir);
+        let mission_path = opts.mission.clone().unwrap_or(files.mission.clone());
+        let outputs = [
+            ("--report", opts.report.as_deref()),
+            ("--samples", opts.samples.as_deref()),
+            ("--record", opts.record.as_deref()),
+        ];
+        let outputs: Vec<(&str, &Path)> = outputs
+            .into_iter()
+            .filter_map(|(flag, p)| Some((flag, p?)))
+            .collect();
+        let mut inputs: Vec<(&str, &Path)> = vec![("the mission", mission_path.as_path())];
+        inputs.extend(files.all().into_iter().map(|p| ("a config file", p)));
+        crate::file_roles::distinct(&inputs, &outputs).map_err(|e| anyhow!(e))?;
         check::check_dir(&opts.config_dir).map_err(|e| anyhow!(e))?;
         let ground = check::Loaded::load(&files).map_err(|e| anyhow!(e))?;
-        let mission_path = opts.mission.clone().unwrap_or(files.mission.clone());
         let mission =
             check::load_mission(&files, &ground, &mission_path).map_err(|e| anyhow!(e))?;
         let scene = ground.scene;
