@@ -139,22 +139,47 @@ fn a_node_that_always_crashes_at_start_ends_the_run_within_the_restart_limit() {
     );
 }
 
-#[test]
-fn sigint_stops_every_process_and_leaves_nothing_behind() {
-    let dir = TestDir::new("sigint");
+/// `sig` to the supervisor of a realtime run: every process stops, nothing is left.
+fn signal_stops_every_process_and_leaves_nothing_behind(sig: libc::c_int, name: &str) {
+    let dir = TestDir::new(name);
     let run_dir = dir.run_dir();
-    let mut aisle = spawn(&run_dir, &["run", "--quiet", "--realtime"]);
-    let _stderr = stderr_reader(&mut aisle);
+    let mut cmd = command(&run_dir, &["run", "--quiet", "--realtime"]);
+    cmd.stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped());
+    // Whatever the test runner ignores (a `nohup` ignores SIGHUP), the run sees the
+    // signal as a terminal would send it.
+    unsafe {
+        use std::os::unix::process::CommandExt;
+        cmd.pre_exec(|| {
+            libc::signal(libc::SIGHUP, libc::SIG_DFL);
+            Ok(())
+        });
+    }
+    let mut aisle = cmd.spawn().expect("aisle starts");
+    let stderr = stderr_reader(&mut aisle);
     let pid = aisle.id();
     let nodes = wait_for_nodes(pid, Duration::from_secs(30));
     assert_eq!(nodes.len(), 5, "{nodes:?}");
     std::thread::sleep(Duration::from_millis(1000));
-    unsafe { libc::kill(pid as i32, libc::SIGINT) };
+    unsafe { libc::kill(pid as i32, sig) };
     // The acceptance figure is 2 s; the bound here only catches a hang on a loaded machine.
-    let status =
-        wait_exit(&mut aisle, Duration::from_secs(15)).expect("the supervisor exits after SIGINT");
-    assert!(!status.success());
+    let status = wait_exit(&mut aisle, Duration::from_secs(15))
+        .unwrap_or_else(|| panic!("the supervisor exits after {name}"));
+    assert_eq!(status.code(), Some(2), "{status:?}");
+    assert!(stderr.join().unwrap().contains("interrupted"));
     assert_group_gone(pid, &nodes, &run_dir);
+}
+
+#[test]
+fn sigint_stops_every_process_and_leaves_nothing_behind() {
+    signal_stops_every_process_and_leaves_nothing_behind(libc::SIGINT, "sigint");
+}
+
+/// The terminal closed: as SIGINT (it used to end the supervisor at once, exit 129,
+/// its instance and config directory left behind).
+#[test]
+fn sighup_stops_every_process_and_leaves_nothing_behind() {
+    signal_stops_every_process_and_leaves_nothing_behind(libc::SIGHUP, "sighup");
 }
 
 #[test]

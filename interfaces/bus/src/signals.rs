@@ -1,4 +1,4 @@
-//! SIGINT and SIGTERM as a stop request.
+//! SIGINT, SIGTERM and SIGHUP (the terminal closed) as a stop request.
 //!
 //! The handler only sets a flag; every wait in the bus uses short timeouts and checks
 //! [`stop_requested`], so a process stops within one wait slice (<= 100 ms) of the
@@ -15,12 +15,18 @@ extern "C" fn on_signal(sig: libc::c_int) {
     STOP.store(true, Ordering::SeqCst);
 }
 
-/// Installs the handler for SIGINT and SIGTERM. Idempotent.
+/// Installs the handler for SIGINT, SIGTERM and SIGHUP. Idempotent.
 pub fn install() {
-    for sig in [libc::SIGINT, libc::SIGTERM] {
+    for sig in [libc::SIGINT, libc::SIGTERM, libc::SIGHUP] {
         // SAFETY: the handler is async-signal-safe (two atomic stores); the sigaction
         // struct is fully initialised by zeroing and setting the handler.
         unsafe {
+            // A SIGHUP ignored by whoever started us (`nohup`) stays ignored.
+            let mut old: libc::sigaction = std::mem::zeroed();
+            libc::sigaction(sig, std::ptr::null(), &mut old);
+            if sig == libc::SIGHUP && old.sa_sigaction == libc::SIG_IGN {
+                continue;
+            }
             let mut action: libc::sigaction = std::mem::zeroed();
             action.sa_sigaction = on_signal as *const () as usize;
             libc::sigemptyset(&mut action.sa_mask);
@@ -30,7 +36,7 @@ pub fn install() {
     }
 }
 
-/// True once SIGINT or SIGTERM arrived (or [`request_stop`] was called).
+/// True once SIGINT, SIGTERM or SIGHUP arrived (or [`request_stop`] was called).
 pub fn stop_requested() -> bool {
     STOP.load(Ordering::SeqCst)
 }
