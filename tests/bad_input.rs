@@ -241,6 +241,22 @@ fn output_paths_are_refused_before_launch_naming_path_and_os_error() {
     let (code, err) = run_refused(&dir, &["run", "--record", s(&here)]);
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("is a directory"), "{err}");
+    // An output over another output or over an input: nothing is written.
+    let both = dir.path("both.json");
+    let (code, err) = run_refused(&dir, &["run", "--report", s(&both), "--record", s(&both)]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("each output needs a file of its own"), "{err}");
+    assert!(!both.exists());
+    let mission = dir.path("m.toml");
+    std::fs::copy(config_dir().join("mission.toml"), &mission).unwrap();
+    let before = std::fs::read(&mission).unwrap();
+    let (code, err) = run_refused(
+        &dir,
+        &["run", "--mission", s(&mission), "--report", s(&mission)],
+    );
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("which the command reads"), "{err}");
+    assert_eq!(std::fs::read(&mission).unwrap(), before);
 }
 
 #[test]

@@ -374,3 +374,19 @@ fn a_carry_goal_that_puts_the_carried_rack_in_the_band_is_refused() {
     f.check(&seed_with(DROP, "goal = [13.4, -7.0, 0.0]"))
         .unwrap();
 }
+
+#[test]
+fn a_planner_timeout_a_request_cannot_carry_is_refused() {
+    // The request holds whole milliseconds in 32 bits: 4294967.297 s was sent as 1 ms.
+    let f = Fixture::shipped("timeout");
+    for bad in ["4294967.297", "0.0001", "0.0"] {
+        refused(
+            &f,
+            &seed_with(
+                "planner_timeout_s = 5.0",
+                &format!("planner_timeout_s = {bad}"),
+            ),
+            &["planner_timeout_s", "0.001..=3600"],
+        );
+    }
+}

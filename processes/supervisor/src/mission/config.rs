@@ -135,11 +135,14 @@ impl MissionConfig {
                 ),
             ));
         }
-        if !(self.planner_timeout_s.is_finite() && self.planner_timeout_s > 0.0) {
+        // The request carries whole milliseconds in 32 bits (0 is the planner's default).
+        if !(self.planner_timeout_s.is_finite()
+            && (0.001..=3600.0).contains(&self.planner_timeout_s))
+        {
             return Err(bad(
                 "planner_timeout_s",
                 format!(
-                    "must be a positive number of seconds, got {}",
+                    "must be within 0.001..=3600 s, got {}",
                     self.planner_timeout_s
                 ),
             ));
