@@ -278,6 +278,18 @@ fn a_mission_that_is_a_device_or_a_fifo_is_refused_at_once() {
         err.contains("mission.fifo") && err.contains("FIFO"),
         "{err}"
     );
+    // Nor is a record read from one (profile, render, export and replay hung).
+    let (png, bag) = (dir.path("x.png"), dir.path("x.mcap"));
+    for args in [
+        vec!["profile", s(&fifo)],
+        vec!["render", s(&fifo), "-o", s(&png)],
+        vec!["export", "--ros2", s(&fifo), s(&bag)],
+        vec!["replay", s(&fifo), "--check"],
+    ] {
+        let (code, err) = run_refused(&dir, &args);
+        assert_eq!(code, Some(2), "{args:?}: {err}");
+        assert!(err.contains("not a regular file"), "{args:?}: {err}");
+    }
 }
 
 #[test]

@@ -103,10 +103,19 @@ pub struct RecordFile {
 
 impl RecordFile {
     pub fn open(path: &Path) -> Result<Self, ReadError> {
-        let buf = std::fs::read(path).map_err(|source| ReadError::Io {
+        let io = |source| ReadError::Io {
             path: path.to_path_buf(),
             source,
-        })?;
+        };
+        // A FIFO or a device would be read until its writer stops: a record is a file.
+        let meta = std::fs::metadata(path).map_err(io)?;
+        if !meta.is_file() {
+            return Err(io(std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                "not a regular file (a directory, a FIFO or a device)",
+            )));
+        }
+        let buf = std::fs::read(path).map_err(io)?;
         Self::from_bytes(path, buf)
     }
 
