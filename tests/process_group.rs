@@ -469,7 +469,11 @@ fn a_recorded_run_profiles_renders_and_survives_truncation() {
         String::from_utf8_lossy(&p.stdout),
         String::from_utf8_lossy(&p.stderr)
     );
-    assert_ne!(p.status.code(), Some(101), "panicked: {text}");
+    assert_eq!(
+        p.status.code(),
+        Some(2),
+        "a damaged record is exit 2: {text}"
+    );
     assert!(
         text.contains("damaged") || text.contains("truncated"),
         "{text}"

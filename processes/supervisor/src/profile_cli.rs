@@ -62,6 +62,7 @@ pub fn profile(a: &ProfileArgs) -> ExitCode {
     if let Some(t) = &report.truncated {
         println!("the file is damaged: profiled what could be read; {t}");
     }
+    let damaged = report.truncated.is_some();
     for (path, write) in [
         (a.json.as_deref(), ProfileReport::write_json as Writer),
         (a.samples.as_deref(), ProfileReport::write_samples as Writer),
@@ -72,6 +73,10 @@ pub fn profile(a: &ProfileArgs) -> ExitCode {
             return crate::exit::fail(e);
         }
         println!("wrote {}", path.display());
+    }
+    if damaged {
+        // Profiled, but of a damaged record: exit 2, as for every command.
+        return crate::exit::could_not();
     }
     ExitCode::SUCCESS
 }

@@ -328,7 +328,9 @@ pub fn render(file: &Path, out: &Path, pixels_per_metre: f64, band_every: usize)
                     a.bytes / 1024
                 );
                 if let Some(t) = &a.truncated {
-                    println!("the file is damaged: drew what could be read; {t}");
+                    // Drawn, but of a damaged record: exit 2, as for every command.
+                    eprintln!("error: damaged record: drew what could be read; {t}");
+                    return crate::exit::could_not();
                 }
                 ExitCode::SUCCESS
             }
