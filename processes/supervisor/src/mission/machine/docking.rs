@@ -198,15 +198,17 @@ impl Mission {
     }
 
     /// How far `pose` is turned from `goal`, the leg's: a body approached without a
-    /// stated goal is docked under from either end, so there the error is at most a
-    /// quarter turn (the other end's).
+    /// stated goal is docked under through any of its four sides, so there the error is
+    /// to the nearest of them (at most an eighth of a turn).
     pub(super) fn heading_error(&self, pose: &Pose2, goal: &Pose2) -> f64 {
         let e = pose.heading_error(goal);
-        let either_end = self.departure.is_none()
+        let any_side = self.departure.is_none()
             && self.spec().goal_given.is_none()
             && self.approached().is_some();
-        if either_end {
-            e.min(std::f64::consts::PI - e)
+        if any_side {
+            let quarter = std::f64::consts::FRAC_PI_2;
+            let r = e % quarter;
+            r.min(quarter - r)
         } else {
             e
         }

@@ -507,7 +507,7 @@ fn a_way_out_through_a_side_turns_in_place_first() {
 }
 
 #[test]
-fn a_rack_approached_without_a_goal_counts_either_end_as_its_heading() {
+fn a_rack_approached_without_a_goal_counts_any_side_as_its_heading() {
     let mut m = mission();
     m.cfg.leg[0].goal_given = None;
     let facing_back = Pose2::new(1.0, 0.0, 3.1);
@@ -528,4 +528,14 @@ fn a_rack_approached_without_a_goal_counts_either_end_as_its_heading() {
         (turn.final_heading_error_rad - 0.1).abs() < 1e-9,
         "{turn:?}"
     );
+    // Entered through a long side (a quarter turn off the body's heading), 0.05 rad off.
+    let mut m = mission();
+    m.cfg.leg[0].goal_given = None;
+    let across = Pose2::new(1.0, 0.0, -std::f64::consts::FRAC_PI_2 + 0.05);
+    m.start_leg(0.0, Pose2::default());
+    m.on_plan(0.0, Pose2::default(), Ok(Planned::plain(path())));
+    m.on_controller(2.0, across, REACHED);
+    m.on_controller(3.0, across, REACHED);
+    let leg = &m.results[0];
+    assert!((leg.final_heading_error_rad - 0.05).abs() < 1e-9, "{leg:?}");
 }
