@@ -35,6 +35,7 @@ pub mod inspect;
 pub mod latency;
 pub mod live;
 pub mod lockstep;
+pub mod paths;
 mod payload_fields;
 pub mod profile;
 mod raw_ports;

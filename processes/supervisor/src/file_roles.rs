@@ -1,33 +1,11 @@
 //! Which files a command reads and which it writes must differ: an output that names an
 //! input (a render over its record, a report over the mission file) or another output
 //! (a record and a report in one file) destroys data and still "succeeds". Checked
-//! before anything is read or written; names compare as files (device and inode when
-//! both exist, so links and other spellings count), else as absolute paths. Knows paths,
-//! not what is in them.
+//! before anything is read or written, with `aisle_tools::paths::same_file` (the ROS 2
+//! export's rule too). Knows paths, not what is in them.
 
-use std::os::unix::fs::MetadataExt;
-use std::path::{Path, PathBuf};
-
-/// Whether `a` and `b` name the same file.
-pub fn same_file(a: &Path, b: &Path) -> bool {
-    match (std::fs::metadata(a), std::fs::metadata(b)) {
-        (Ok(x), Ok(y)) => x.dev() == y.dev() && x.ino() == y.ino(),
-        _ => absolute(a) == absolute(b),
-    }
-}
-
-/// `p` with its directory resolved (symlinks and `..` included) when it exists.
-fn absolute(p: &Path) -> PathBuf {
-    let name = p.file_name().map(PathBuf::from).unwrap_or_default();
-    let parent = match p.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    match parent.canonicalize() {
-        Ok(d) => d.join(name),
-        Err(_) => p.to_path_buf(),
-    }
-}
+use aisle_tools::paths::same_file;
+use std::path::Path;
 
 /// Refuses an output (flag, path) that names an input or another output.
 pub fn distinct(inputs: &[(&str, &Path)], outputs: &[(&str, &Path)]) -> Result<(), String> {

@@ -64,9 +64,7 @@ impl LaunchSpec {
         if let Some(argv) = self.external.get(&kind) {
             // A path (not a name looked up on PATH) is relative to the graph's directory:
             // where the user's graph.toml is, not an overlay's assembled copy of it.
-            let graph =
-                crate::cli::config::source_of(&aisle_node::graph::path_in(&self.config_dir));
-            let graph_dir = graph.parent().unwrap_or(&self.config_dir).to_path_buf();
+            let graph_dir = crate::check::external::graph_dir(&self.config_dir);
             let program = std::path::Path::new(&argv[0]);
             let mut cmd = if argv[0].contains('/') && program.is_relative() {
                 Command::new(graph_dir.join(program))

@@ -47,7 +47,7 @@ pub struct ExportSummary {
 
 /// Writes the ROS 2 bag of the record `input` to `output` (replaced if it exists).
 pub fn export_ros2(input: &Path, output: &Path) -> Result<ExportSummary, ExportError> {
-    if same_file(input, output) {
+    if crate::paths::same_file(input, output) {
         return Err(ExportError::SameFile {
             path: output.to_path_buf(),
         });
@@ -88,16 +88,6 @@ pub fn export_ros2(input: &Path, output: &Path) -> Result<ExportSummary, ExportE
         let _ = std::fs::remove_file(&partial);
     }
     result
-}
-
-/// True when `output` names the same file as `input` (by device and inode, so links
-/// and other spellings of the path count too).
-fn same_file(input: &Path, output: &Path) -> bool {
-    use std::os::unix::fs::MetadataExt;
-    match (std::fs::metadata(input), std::fs::metadata(output)) {
-        (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
-        _ => false,
-    }
 }
 
 /// Writes the bag; an error is the reason the output could not be written.

@@ -11,10 +11,8 @@ use std::path::{Path, PathBuf};
 /// The external nodes' own config files present in `dir`, after checking that every
 /// external node's program can be started.
 pub fn check(dir: &Path, graph: &Graph) -> Result<Vec<PathBuf>, String> {
-    let graph_file = aisle_node::graph::path_in(dir);
-    // An overlay's graph names programs relative to the user's file, not the copy.
-    let source = crate::cli::config::source_of(&graph_file);
-    let graph_dir = source.parent().unwrap_or(dir);
+    let source = crate::cli::config::source_of(&aisle_node::graph::path_in(dir));
+    let graph_dir = &graph_dir(dir);
     let mut own = Vec::new();
     for node in graph.nodes() {
         let Some(argv) = &node.command else { continue };
@@ -42,6 +40,14 @@ pub fn check(dir: &Path, graph: &Graph) -> Result<Vec<PathBuf>, String> {
         }
     }
     Ok(own)
+}
+
+/// The directory of the user's graph file of config directory `dir` (for an overlay,
+/// not the assembled copy's): what a node's relative command is relative to, and where
+/// it runs.
+pub fn graph_dir(dir: &Path) -> PathBuf {
+    let source = crate::cli::config::source_of(&aisle_node::graph::path_in(dir));
+    source.parent().unwrap_or(dir).to_path_buf()
 }
 
 /// Whether `program` names an executable file: a path (relative to `graph_dir`), or a
