@@ -86,6 +86,37 @@ fn a_killed_external_node_is_restarted_and_the_mission_goes_on() {
     assert_eq!(r.collisions, 0);
 }
 
+/// Exit 2 is a node's "cannot run as launched": the run ends at once naming the node and
+/// its last words, with exit 2, instead of restarting it until the policy gives up.
+#[test]
+fn an_external_node_that_cannot_run_as_launched_is_not_restarted() {
+    let dir = TestDir::new("ext-exit2");
+    let config = support::config_with_graph(
+        &dir,
+        r#"
+[[node]]
+name = "broken_node"
+command = ["/bin/sh", "-c", "echo 'error: broken_node: no such device' >&2; exit 2"]
+publishes = []
+subscribes = ["aisle/robot_state"]
+acknowledges = "none"
+"#,
+    );
+    let out = support::run(
+        &dir.run_dir(),
+        &["run", "--quiet", "--config-dir", config.to_str().unwrap()],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("node `broken_node` exited with code 2")
+            && err.contains("no such device")
+            && err.contains("not restarted"),
+        "{err}"
+    );
+    assert!(!err.contains("restarting it"), "{err}");
+}
+
 /// The controller blind to what the lidar detects (`inputs.avoid_detected = false`):
 /// alone it drives into the unseen pallets on its reference path; with the monitor in
 /// the graph it is stopped in front of them, and nothing is hit.

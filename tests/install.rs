@@ -65,6 +65,8 @@ fn init_writes_the_built_in_config_once_and_version_and_completions_print() {
     let out = run_in(bin, &dir.0, &dir, &["init", t]);
     assert!(out.status.success(), "{out:?}");
     assert!(target.join("graph.toml").is_file() && target.join("jackal.urdf").is_file());
+    // Only the config itself: no README of config directories that are not written.
+    assert!(!target.join("growth").exists(), "init wrote config/growth/");
     let check = run_in(bin, &dir.0, &dir, &["check", "--config-dir", t]);
     assert!(check.status.success(), "{check:?}");
 

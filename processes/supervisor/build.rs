@@ -38,8 +38,10 @@ fn collect(root: &Path, dir: &Path, files: &mut Vec<String>) {
         let path = entry.expect("a directory entry").path();
         if path.is_dir() {
             // A directory with a scene of its own (`config/large/`) is another config
-            // directory, run with `--config-dir`, not part of the built-in one.
-            if !path.join("warehouse.toml").exists() {
+            // directory, run with `--config-dir`, not part of the built-in one; so is a
+            // folder of such directories (`config/growth/`), README included: `aisle
+            // init` would write the README without the directories it describes.
+            if !is_config_dir(&path) && !holds_config_dirs(&path) {
                 collect(root, &path, files);
             }
         } else if path.is_file() {
@@ -86,4 +88,16 @@ fn git_commit(manifest: &Path) -> String {
         println!("cargo:rerun-if-changed={}", manifest.join(path).display());
     }
     commit
+}
+
+fn is_config_dir(dir: &Path) -> bool {
+    dir.join("warehouse.toml").exists()
+}
+
+fn holds_config_dirs(dir: &Path) -> bool {
+    std::fs::read_dir(dir).is_ok_and(|entries| {
+        entries
+            .flatten()
+            .any(|e| e.path().is_dir() && is_config_dir(&e.path()))
+    })
 }

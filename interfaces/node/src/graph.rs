@@ -214,12 +214,47 @@ impl Graph {
                 }
             }
         }
+        self.check_publisher_counts()?;
         for k in NodeKind::LAUNCHED {
             if !self.nodes.iter().any(|n| n.name == k.name()) {
                 return Err((
                     "node".into(),
                     format!("the built-in node `{}` is missing", k.name()),
                 ));
+            }
+        }
+        Ok(())
+    }
+
+    /// No topic gets more publishers (nodes that publish or retain it) than its QoS
+    /// admits: iceoryx2 would refuse the one too many at run time, after launch.
+    fn check_publisher_counts(&self) -> Result<(), (String, String)> {
+        for (i, n) in self.nodes.iter().enumerate() {
+            for t in n.publishes.iter().chain(&n.retains) {
+                let Some(info) = topics::info(t) else {
+                    continue;
+                };
+                let before: Vec<&str> = self.nodes[..i]
+                    .iter()
+                    .filter(|m| m.publishes.contains(t) || m.retains.contains(t))
+                    .map(|m| m.name.as_str())
+                    .collect();
+                if before.len() >= info.qos.max_publishers {
+                    let field = if n.publishes.contains(t) {
+                        "publishes"
+                    } else {
+                        "retains"
+                    };
+                    return Err((
+                        format!("node[{i}].{field}"),
+                        format!(
+                            "`{t}` admits {} publisher(s), and {} already publish it; `{}` cannot as well",
+                            info.qos.max_publishers,
+                            before.join(", "),
+                            n.name
+                        ),
+                    ));
+                }
             }
         }
         Ok(())
@@ -337,6 +372,28 @@ mod tests {
         assert_eq!(g.producer(topics::CONTROLLER_GOAL.name), Some(Supervisor));
         let launched: Vec<_> = g.launched().collect();
         assert_eq!(launched, NodeKind::LAUNCHED);
+    }
+
+    #[test]
+    fn a_node_of_the_users_may_not_be_a_publisher_too_many() {
+        // The band has its two publishers already (the controller, and the supervisor
+        // that retains it): a third would be refused by iceoryx2 only after launch.
+        let ext = |topic: &str| {
+            format!(
+                "{SHIPPED}\n[[node]]\nname = \"mine\"\ncommand = [\"/bin/true\"]\npublishes = [\"{topic}\"]\nsubscribes = []\nacknowledges = \"none\"\n"
+            )
+        };
+        let e = Graph::parse(Path::new("g.toml"), &ext("aisle/controller/band"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("node[7].publishes")
+                && e.contains("`aisle/controller/band` admits 2 publisher(s)")
+                && e.contains("teb_controller, supervisor already publish it"),
+            "{e}"
+        );
+        // One more publisher of a command topic is room the QoS leaves.
+        Graph::parse(Path::new("g.toml"), &ext("aisle/sim_command")).unwrap();
     }
 
     #[test]

@@ -106,8 +106,12 @@ impl LaunchSpec {
 pub struct ProcessGroup {
     pub children: Vec<RunningChild>,
     spec: LaunchSpec,
-    /// The last line each node wrote to stderr (its last error), forwarded as it comes.
-    last_lines: Arc<Mutex<HashMap<NodeKind, String>>>,
+    /// The last line each node wrote to stderr (its last error), forwarded as it comes,
+    /// with the incarnation that wrote it.
+    last_lines: Arc<Mutex<HashMap<NodeKind, (u64, String)>>>,
+    /// How many times each node was started: a restarted node that dies silently must
+    /// not be reported with its predecessor's last words.
+    incarnations: HashMap<NodeKind, u64>,
     /// The nodes placed on other hosts (`aisle run --hosts`).
     remote: Option<crate::remote::RemoteNodes>,
 }
@@ -118,6 +122,7 @@ impl ProcessGroup {
             children: Vec::new(),
             spec,
             last_lines: Arc::default(),
+            incarnations: HashMap::new(),
             remote: None,
         }
     }
@@ -187,6 +192,9 @@ impl ProcessGroup {
                 std::path::Path::new(cmd.get_program()).display()
             )
         })?;
+        let incarnation = self.incarnations.entry(kind).or_default();
+        *incarnation += 1;
+        let incarnation = *incarnation;
         if let Some(err) = child.stderr.take() {
             let lines = Arc::clone(&self.last_lines);
             // Forward the node's stderr and remember its last line, so that a node that
@@ -194,8 +202,11 @@ impl ProcessGroup {
             std::thread::spawn(move || {
                 for line in BufReader::new(err).lines().map_while(Result::ok) {
                     eprintln!("{line}");
-                    if let Ok(mut m) = lines.lock() {
-                        m.insert(kind, line);
+                    // A predecessor's late lines never cover its successor's.
+                    if let Ok(mut m) = lines.lock()
+                        && m.get(&kind).is_none_or(|(by, _)| *by <= incarnation)
+                    {
+                        m.insert(kind, (incarnation, line));
                     }
                 }
             });
@@ -213,7 +224,10 @@ impl ProcessGroup {
     /// The last line `kind` wrote to stderr, without terminal colour codes.
     pub fn last_line(&self, kind: NodeKind) -> Option<String> {
         let m = self.last_lines.lock().ok()?;
-        let line = m.get(&kind)?;
+        let (written_by, line) = m.get(&kind)?;
+        if self.incarnations.get(&kind) != Some(written_by) {
+            return None;
+        }
         let mut out = String::with_capacity(line.len());
         let mut chars = line.chars();
         while let Some(c) = chars.next() {

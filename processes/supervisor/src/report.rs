@@ -107,9 +107,15 @@ impl RunReport {
             self.ticks,
             self.mode
         ));
+        // No ground truth (the run ended before its first tick): no clearance to show.
+        let clearance = if self.min_clearance_m.is_finite() {
+            format!("{:.3} m", self.min_clearance_m)
+        } else {
+            "not measured".to_string()
+        };
         out.push_str(&format!(
-            "  driven {:.2} m, min clearance {:.3} m, collisions {}, replans {}, restarts {}\n",
-            self.path_length_m, self.min_clearance_m, self.collisions, self.replans, self.restarts
+            "  driven {:.2} m, min clearance {clearance}, collisions {}, replans {}, restarts {}\n",
+            self.path_length_m, self.collisions, self.replans, self.restarts
         ));
         for e in &self.collision_events {
             out.push_str(&format!("  {e}\n"));

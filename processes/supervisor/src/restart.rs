@@ -159,6 +159,8 @@ impl RestartBook {
         times.push(now_s);
         let n = times.len() as u32;
         if n > policy.max_restarts {
+            // Refused: this death is not a restart, so it is not counted as one.
+            times.pop();
             Err(n - 1)
         } else {
             Ok(n)
@@ -188,6 +190,8 @@ mod tests {
         assert_eq!(book.allow(NodeKind::Lidar, &p, 1.0), Ok(2));
         assert_eq!(book.allow(NodeKind::Mapper, &p, 1.0), Ok(1));
         assert_eq!(book.allow(NodeKind::Lidar, &p, 2.0), Err(2));
+        // The refused death is no restart: the report's total says what was restarted.
+        assert_eq!(book.total(), 3);
         // Old restarts leave the window.
         let mut book = RestartBook::default();
         book.allow(NodeKind::Lidar, &p, 0.0).unwrap();

@@ -374,11 +374,17 @@ impl Mission {
                     } else {
                         format!("stayed infeasible (exit flag {})", report.exit_flag)
                     };
+                    // Failed plans use up the same budget: say so, or the count
+                    // looks short of `max_replans_per_leg`.
+                    let failed = match self.plan_failures {
+                        0 => String::new(),
+                        n => format!(" and {n} failed plan(s)"),
+                    };
                     return self.fail(
                         now_s,
                         pose,
                         format!(
-                            "leg {} `{}`: the controller {why} after {} replans",
+                            "leg {} `{}`: the controller {why} after {} replans{failed}",
                             self.leg + 1,
                             self.leg_name(),
                             self.replans - 1

@@ -197,6 +197,15 @@ impl NodeHealth {
                 .last_line(kind)
                 .map(|l| format!("; its last words: {l}"))
                 .unwrap_or_default();
+            // Exit 2 is every node's "cannot run as launched" (arguments, environment,
+            // a program that is not that node): its successor would fail the same way.
+            if status.code() == Some(i32::from(crate::exit::COULD_NOT)) {
+                return Err(RunAborted::Error(anyhow!(
+                    "node `{}` {} (it cannot run as launched, so it is not restarted){last}",
+                    kind.name(),
+                    describe(&status),
+                )));
+            }
             // A hung node killed here was declared dead when it was killed.
             if !self.hung.contains(&kind) {
                 self.declared_dead.push((kind, 0.0));
