@@ -452,7 +452,7 @@ fn a_scene_with_more_movable_bodies_than_ground_truth_holds_is_refused_naming_it
         &cfg,
         &[
             "warehouse.toml",
-            "bodies are not static",
+            "movable bodies (`static = false`), more than the 224",
             "static bodies: any number",
         ],
     );

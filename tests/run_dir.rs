@@ -288,7 +288,10 @@ fn load_tolerant_config(dir: &TestDir) -> PathBuf {
         "realtime_heartbeat_timeout_s = 0.2",
         "realtime_heartbeat_timeout_s = 10.0",
     );
-    assert_ne!(tolerant, restart, "config/restart.toml changed its timeout line");
+    assert_ne!(
+        tolerant, restart,
+        "config/restart.toml changed its timeout line"
+    );
     std::fs::write(config.join("restart.toml"), tolerant).unwrap();
     config
 }

@@ -3,6 +3,8 @@
 //! - [`record`]: the recorder node (`run_recorder`) writing one MCAP file per run;
 //! - [`replay`]: publishes a recorded file back into a live instance, or (`replay_own`)
 //!   into one it creates itself, for consumers without a supervisor;
+//! - [`trust`]: which topics a tool may publish into a live instance (none its group
+//!   publishes);
 //! - [`lockstep`]: replays a lockstep recording tick by tick into live consumers and
 //!   compares their outputs with the recorded ones ([`tick_batches`] regroups the file,
 //!   [`diff`] names the first differing field);
@@ -22,6 +24,7 @@
 //! [`viewer`] (Foxglove protobuf conversion), [`aligned`] (viewing bytes as messages),
 //! `raw_ports` (type-erased publishers and
 //! subscribers opened by topic name, for the recorder and both replays),
+//! [`output_lock`] (one command at a time writes an output file),
 //! `payload_fields` (header fields read from raw payload bytes). [`synthetic`] makes a
 //! deterministic fake run for tests, benchmarks and examples.
 
@@ -35,6 +38,7 @@ pub mod inspect;
 pub mod latency;
 pub mod live;
 pub mod lockstep;
+pub mod output_lock;
 pub mod paths;
 mod payload_fields;
 pub mod profile;
@@ -46,6 +50,7 @@ pub mod replay;
 mod replay_own;
 pub mod ros2;
 pub mod tick_batches;
+pub mod trust;
 pub mod viewer;
 pub mod writer;
 

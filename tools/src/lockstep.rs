@@ -9,7 +9,8 @@
 //! simulated time and field; the replay goes on to the end and counts the rest.
 //!
 //! Knows the bus and the file; the caller brings the live consumers (it may have
-//! launched them) and a liveness probe for them.
+//! launched them) and a liveness probe for them. Into a live group it publishes none of
+//! the group's own topics (`trust.rs`).
 
 use crate::catalog::service_info;
 use crate::diff::{WALL_CLOCK_FIELDS, first_difference};
@@ -151,7 +152,8 @@ pub struct LockstepPorts {
 
 impl LockstepPorts {
     /// Checks every published and compared service of `file` against this build (a
-    /// different layout is refused naming the service) and opens the ports.
+    /// different layout is refused naming the service), refuses the topics a live group
+    /// of the instance publishes itself, and opens the ports.
     pub fn open(
         bus: &Bus,
         file: &RecordFile,
@@ -169,12 +171,17 @@ impl LockstepPorts {
         } else {
             opts.publish.clone()
         };
-        let mut sinks = BTreeMap::new();
         for t in &publish {
             if t == s::INSTANCE || t == s::TICK_DONE || t == s::HEARTBEAT {
                 return Err(ReplayError::NotReplayable(t.clone()));
             }
             check_channel(path, recorded_channel(path, &recorded, t)?)?;
+        }
+        // Into a live group, none of its own topics (an instance this process created
+        // and launched the consumers into has none of them yet).
+        crate::replay::refuse_group_topics(bus, &publish)?;
+        let mut sinks = BTreeMap::new();
+        for t in &publish {
             if let Some(sink) = open_sink(bus, t)? {
                 sinks.insert(t.clone(), sink);
             }

@@ -9,8 +9,9 @@
 //! publishes the newest sample of each state service (history > 0: maps, goals, band),
 //! as a late subscriber would have received it. A truncated file is replayed as far as
 //! it can be read, and the summary says where it ends. Publishers hand their history to
-//! late subscribers, as live ones do. Without a supervisor the replay creates the
-//! instance itself (`replay_own.rs`). Lockstep replay (waiting for the consumers'
+//! late subscribers, as live ones do. Into a live instance it publishes no topic that
+//! the instance's group publishes itself (`trust.rs`). Without a supervisor the replay
+//! creates the instance itself (`replay_own.rs`). Lockstep replay (waiting for the consumers'
 //! acknowledgements) is not done here.
 
 use crate::catalog::{ServiceInfo, service_info, services};
@@ -125,6 +126,14 @@ pub enum ReplayError {
     },
     #[error("{0}")]
     ConsumerGone(String),
+    #[error(
+        "refusing to publish into instance {prefix}: its live group publishes {}; its subscribers would take the replayed samples for that publisher's own. Leave these out of --topics, or replay without --prefix/--root into an instance of the replay's own",
+        crate::trust::describe(.refused)
+    )]
+    GroupTopics {
+        prefix: String,
+        refused: Vec<crate::trust::GroupTopic>,
+    },
 }
 
 /// A recorded channel whose layout differs from this build's.
@@ -244,7 +253,21 @@ pub fn replay(opts: &ReplayOptions) -> Result<ReplaySummary, ReplayError> {
         return crate::replay_own::replay_own(opts, &file, &selected, foreign);
     }
     let (bus, _info) = Bus::join(&opts.instance, NodeKind::Replay, opts.join_timeout)?;
+    refuse_group_topics(&bus, &selected)?;
     publish_file(&bus, &file, &selected, opts, foreign, None)
+}
+
+/// Refuses, before anything is published, the topics the live group of `bus`'s
+/// instance publishes itself (`trust.rs`).
+pub fn refuse_group_topics(bus: &Bus, topics: &[String]) -> Result<(), ReplayError> {
+    let refused = crate::trust::live_group_topics(bus, topics)?;
+    if refused.is_empty() {
+        return Ok(());
+    }
+    Err(ReplayError::GroupTopics {
+        prefix: bus.instance().prefix.clone(),
+        refused,
+    })
 }
 
 /// Opens a publisher per selected service and plays the file through them, once or

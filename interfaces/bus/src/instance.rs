@@ -214,24 +214,36 @@ impl Instance {
     /// than this one: observers that joined it (an external `aisle record`, `aisle
     /// echo`, a Python client). Empty when the instance cannot be listed (it is gone).
     pub fn attached_pids(&self) -> Vec<u32> {
+        let mut pids: Vec<u32> = Vec::new();
+        for (_, pid) in self.live_nodes() {
+            if !pids.contains(&pid) {
+                pids.push(pid);
+            }
+        }
+        pids
+    }
+
+    /// The live nodes of the instance other than this process's, each with its name
+    /// (a process's `NodeKind` name: `simulator`, `supervisor`, `replay`, ...) and pid.
+    /// Empty when the instance cannot be listed (it is gone).
+    pub fn live_nodes(&self) -> Vec<(String, u32)> {
         use iceoryx2::node::NodeView;
         let Ok(config) = self.iceoryx_config() else {
             return Vec::new();
         };
         let own = std::process::id();
-        let mut pids = Vec::new();
+        let mut nodes = Vec::new();
         let _ = Node::<ipc::Service>::list(&config, |state| {
             if let iceoryx2::node::NodeState::Alive(view) = state
                 && let Some(details) = view.details()
                 && let Ok(pid) = u32::try_from(details.process_id().value())
                 && pid != own
-                && !pids.contains(&pid)
             {
-                pids.push(pid);
+                nodes.push((details.name().as_str().to_string(), pid));
             }
             CallbackProgression::Continue
         });
-        pids
+        nodes
     }
 
     /// True when nothing of the instance remains on disk or in /dev/shm.

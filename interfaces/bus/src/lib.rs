@@ -4,7 +4,8 @@
 //!   handed to every child, private to its user, and removed without a trace when the
 //!   launch ends; [`run_dir`] is where roots live and whether that place is trusted;
 //!   [`sweep`] removes what dead instances left; [`discovery`] writes and finds the
-//!   `aisle-instance.toml` by which processes not launched by a supervisor join.
+//!   `aisle-instance.toml` by which processes not launched by a supervisor join;
+//!   [`OwnerWatch`] tells such an observer when the instance's owner has ended it.
 //! - [`Bus`]: a process's membership: its iceoryx2 node, the schema-hash check on join,
 //!   heartbeats, and cleanup of resources left by dead nodes.
 //! - [`Publisher`] / [`Subscriber`]: typed pub/sub ports, each paired with an event
@@ -32,6 +33,7 @@ mod instance;
 mod mgmt_segment;
 mod node;
 pub mod owner;
+mod owner_watch;
 mod port;
 mod raw;
 mod request;
@@ -47,6 +49,7 @@ pub use error::BusError;
 pub use hold::HeldService;
 pub use instance::{Instance, MAX_ROOT_AND_PREFIX};
 pub use node::NodeError;
+pub use owner_watch::OwnerWatch;
 pub use port::{
     Publisher, Received, SERVICE_SETTINGS, ServiceSettings, Stamp, Subscriber, WaitOutcome,
     message_bytes,

@@ -5,7 +5,9 @@
 //! map, and leg by leg a goal or drop pose that overlaps a known body or that the static
 //! map cannot reach: [`legs`], [`goals`], [`reach`]), and [`realtime`] (the real-time
 //! options against the graph and this host's CPUs). `aisle run` goes through the same
-//! path before it launches anything.
+//! path before it launches anything. [`scene_limits`]: how large a scene the messages
+//! can carry (`aisle scene generate` asks it too); [`open_side`]: a body a leg
+//! approaches or carries can be driven under.
 
 pub mod arrival;
 pub mod external;
@@ -13,9 +15,11 @@ pub mod goals;
 pub mod legs;
 #[cfg(test)]
 mod mission_tests;
+pub mod open_side;
 pub mod placement;
 pub mod reach;
 pub mod realtime;
+pub mod scene_limits;
 pub mod sensor;
 #[cfg(test)]
 mod testing;
@@ -134,28 +138,29 @@ pub struct Loaded {
     /// The static map (`mapper.toml`: the scene's static bodies, or a ROS map).
     pub static_map: aisle_geometry::GridMap,
     pub teb: aisle_teb_controller::TebConfig,
+    pub planner: aisle_global_planner::PlannerConfig,
 }
 
 impl Loaded {
     pub fn load(files: &ConfigFiles) -> Result<Loaded, String> {
         let s = |e: &dyn std::fmt::Display| e.to_string();
         let scene = Scene::load(&files.scene).map_err(|e| s(&e))?;
-        let movable = scene.movable_bodies().count();
-        if movable > aisle_simulator::MAX_MOVABLE_BODIES {
+        let map_cfg =
+            aisle_config::load::<aisle_mapper::MapConfig>(&files.mapper).map_err(|e| s(&e))?;
+        let bytes = std::fs::metadata(&files.scene).map_or(0, |m| m.len() as usize);
+        if let Some(why) = scene_limits::problem(bytes, &scene, map_cfg.cells_per_metre) {
             return Err(format!(
-                "{}: {movable} bodies are not static, the simulator's ground truth holds {} \
-                 (static bodies: any number)",
+                "{}: {why} ({} cells_per_metre = {})",
                 files.scene.display(),
-                aisle_simulator::MAX_MOVABLE_BODIES
+                files.mapper.display(),
+                map_cfg.cells_per_metre
             ));
         }
         let (robot, model) = aisle_robot::load_robot(&files.robot).map_err(|e| s(&e))?;
         aisle_config::load::<aisle_robot::LidarConfig>(&files.lidar).map_err(|e| s(&e))?;
-        let map_cfg =
-            aisle_config::load::<aisle_mapper::MapConfig>(&files.mapper).map_err(|e| s(&e))?;
         let map = aisle_mapper::load_static_map(&map_cfg, &files.scene)
             .map_err(|e| format!("{}: {e}", files.mapper.display()))?;
-        aisle_config::load::<aisle_global_planner::PlannerConfig>(&files.planner)
+        let planner = aisle_config::load::<aisle_global_planner::PlannerConfig>(&files.planner)
             .map_err(|e| s(&e))?;
         let teb =
             aisle_config::load::<aisle_teb_controller::TebConfig>(&files.teb).map_err(|e| s(&e))?;
@@ -166,6 +171,7 @@ impl Loaded {
             robot,
             model,
             teb,
+            planner,
         })
     }
 }
@@ -187,6 +193,7 @@ pub fn load_mission(
         map: ground.map,
         static_map: ground.static_map.view(),
         map_path: &files.mapper,
+        dock: open_side::params(&ground.planner),
     };
     placement::check_mission(&mission, path, &g).map_err(|e| e.to_string())?;
     let mount = ground

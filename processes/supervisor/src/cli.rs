@@ -195,8 +195,8 @@ pub enum MapCommand {
     Export {
         /// Output directory (created if missing).
         dir: PathBuf,
-        /// Base name of the two files.
-        #[arg(long, default_value = "warehouse")]
+        /// Base name of the two files (a file name: not empty, no `/`, not `.` or `..`).
+        #[arg(long, default_value = "warehouse", value_parser = file_base_name)]
         name: String,
         /// The config directory (default: the built-in config).
         #[arg(long)]
@@ -289,12 +289,13 @@ pub fn main() -> ExitCode {
                     seed,
                     family,
                     out,
+                    force,
                     config_dir: cd,
                 },
         } => {
             log("warn");
             with_config(cd.as_deref(), |c| {
-                scenario_cli::generate(seed, &family, out, c)
+                scenario_cli::generate(seed, &family, out, force, c)
             })
         }
         Command::Sweep(a) => {
@@ -311,4 +312,14 @@ pub fn main() -> ExitCode {
             )
         }
     }
+}
+
+/// A base name `DIR/<name>.yaml` keeps inside DIR: the map export's `--name`.
+fn file_base_name(name: &str) -> Result<String, String> {
+    if name.is_empty() || name == "." || name == ".." || name.contains(['/', '\0']) {
+        return Err(format!(
+            "`{name}` is not a file name (it must be non-empty, without `/`, not `.` or `..`)"
+        ));
+    }
+    Ok(name.to_string())
 }

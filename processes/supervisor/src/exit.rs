@@ -22,11 +22,13 @@ Exit codes (every subcommand):
      the command did what was asked
   1  the verdict is negative: the mission failed (a collision, an unreachable goal,
      a timeout), `check` found an invalid config, `replay --check` diverged,
-     `instance` found no live instance
+     `instance` found no live instance, the instance `echo` or `hz` watched ended
+     (its owner stopped the group)
   2  could not do what was asked: usage error, unreadable or invalid input (config,
      mission, record), output path not writable or naming an input or another
-     output, setup failure, damaged record, the group could not run or was
-     interrupted";
+     output or being written by another command now, a replay into a live group
+     of a topic the group publishes itself (refused before anything is published),
+     setup failure, damaged record, the group could not run or was interrupted";
 
 pub fn negative() -> ExitCode {
     ExitCode::from(NEGATIVE)

@@ -2,9 +2,12 @@
 //! input (a render over its record, a report over the mission file) or another output
 //! (a record and a report in one file) destroys data and still "succeeds". Checked
 //! before anything is read or written, with `aisle_tools::paths::same_file` (the ROS 2
-//! export's rule too). Knows paths, not what is in them.
+//! export's rule too). And an output must be one the command can write
+//! ([`writable_output`]), found out before the work that produces it (a mission, a
+//! record's profile), not after. Knows paths, not what is in them.
 
 use aisle_tools::paths::same_file;
+use std::os::unix::fs::OpenOptionsExt;
 use std::path::Path;
 
 /// Refuses an output (flag, path) that names an input or another output.
@@ -31,9 +34,105 @@ pub fn distinct(inputs: &[(&str, &Path)], outputs: &[(&str, &Path)]) -> Result<(
     Ok(())
 }
 
+/// An output file the command will write at its end: refused now when the path is
+/// empty or a directory, its directory is missing, or the file cannot be opened for
+/// writing there. Names the flag, the path and the OS error.
+pub fn writable_output(flag: &str, path: &Path) -> Result<(), String> {
+    output_shape(flag, path)?;
+    output_access(flag, path)
+}
+
+/// The path can name an output file: not empty, not a directory, in a directory that
+/// exists.
+pub fn output_shape(flag: &str, path: &Path) -> Result<(), String> {
+    if path.as_os_str().is_empty() {
+        return Err(format!("{flag}: the path is empty"));
+    }
+    if path.is_dir() {
+        return Err(format!("{flag} {}: is a directory", path.display()));
+    }
+    let parent = parent_of(path);
+    let meta = std::fs::metadata(parent).map_err(|e| {
+        format!(
+            "{flag} {}: directory {}: {e}",
+            path.display(),
+            parent.display()
+        )
+    })?;
+    if !meta.is_dir() {
+        return Err(format!(
+            "{flag} {}: {} is not a directory",
+            path.display(),
+            parent.display()
+        ));
+    }
+    Ok(())
+}
+
+/// The command may write the output file: it is opened for writing (never truncated) or,
+/// when missing, created and removed again. Asking `access(2)` is not enough: it says
+/// yes to root everywhere, also where the file system refuses every new file (`/proc`,
+/// `/sys`); the open is what the write at the end will do.
+pub fn output_access(flag: &str, path: &Path) -> Result<(), String> {
+    let cannot = |e: std::io::Error| format!("{flag} {}: cannot write it: {e}", path.display());
+    if path.symlink_metadata().is_ok() {
+        // Non-blocking: a FIFO with no reader fails at once instead of hanging here.
+        std::fs::OpenOptions::new()
+            .write(true)
+            .custom_flags(libc::O_NONBLOCK)
+            .open(path)
+            .map_err(cannot)?;
+        return Ok(());
+    }
+    std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(path)
+        .map_err(cannot)?;
+    std::fs::remove_file(path).map_err(cannot)
+}
+
+fn parent_of(path: &Path) -> &Path {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_output_the_command_cannot_write_is_refused_before_it_runs() {
+        let dir = tempfile::tempdir().unwrap();
+        let new = dir.path().join("samples.csv");
+        writable_output("--samples", &new).unwrap();
+        assert!(!new.exists(), "the probe leaves no file behind");
+        std::fs::write(&new, b"kept").unwrap();
+        writable_output("--samples", &new).unwrap();
+        assert_eq!(std::fs::read(&new).unwrap(), b"kept", "never truncated");
+        // Refused whoever runs it, root included (access(2) says yes to root): /proc
+        // takes no new files.
+        let e = writable_output("--samples", Path::new("/proc/x.csv")).unwrap_err();
+        assert!(
+            e.contains("--samples /proc/x.csv") && e.contains("cannot write"),
+            "{e}"
+        );
+        // A FIFO nobody reads is refused at once, not waited on.
+        let fifo = dir.path().join("fifo");
+        let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+        // SAFETY: a valid NUL-terminated path.
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+        let e = writable_output("--report", &fifo).unwrap_err();
+        assert!(e.contains("cannot write"), "{e}");
+        let e = writable_output("--svg", dir.path()).unwrap_err();
+        assert!(e.contains("is a directory"), "{e}");
+        let e = writable_output("--json", &dir.path().join("no/such/x.json")).unwrap_err();
+        assert!(e.contains("No such file"), "{e}");
+        let e = writable_output("--json", Path::new("")).unwrap_err();
+        assert!(e.contains("empty"), "{e}");
+    }
 
     #[test]
     fn an_output_over_an_input_or_another_output_is_refused() {

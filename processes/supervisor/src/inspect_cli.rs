@@ -42,7 +42,8 @@ directory is refused)."
     /// Print the samples of a topic as text (field names and values, long arrays cut).
     #[command(
         after_help = "Exit: 0 printed (--count reached, or Ctrl-C), 1 --timeout \
-passed before --count samples, 2 could not (no instance, unknown topic)."
+passed before --count samples, or the instance ended (its owner stopped the group), 2 \
+could not (no instance, unknown topic)."
     )]
     Echo {
         /// The topic, e.g. aisle/robot_state (`aisle topics` lists them).
@@ -64,8 +65,8 @@ passed before --count samples, 2 could not (no instance, unknown topic)."
     },
     /// The rate of a topic and the min/max/std of its period, per --window.
     #[command(
-        after_help = "Exit: 0 measured (--count windows, or Ctrl-C), 2 could not (no \
-instance, unknown topic)."
+        after_help = "Exit: 0 measured (--count windows, or Ctrl-C), 1 the instance \
+ended first (its owner stopped the group), 2 could not (no instance, unknown topic)."
     )]
     Hz {
         /// The topic, e.g. aisle/lidar/points (`aisle topics` lists them).
@@ -163,7 +164,7 @@ fn echo(target: &Target, topic: &str, opts: &EchoOptions) -> ExitCode {
     let printed =
         match join(target).and_then(|bus| Ok(inspect::echo(&bus, topic, opts, &mut print)?)) {
             Ok(n) => n,
-            Err(e) => return crate::exit::fail(format!("{e:#}")),
+            Err(e) => return failed(&e),
         };
     match opts.count {
         Some(c) if printed < c && !aisle_bus::signals::stop_requested() => {
@@ -184,8 +185,18 @@ fn hz(target: &Target, topic: &str, window: Duration, count: Option<u64>) -> Exi
     };
     match join(target).and_then(|bus| Ok(inspect::hz(&bus, topic, window, count, &mut report)?)) {
         Ok(_) => ExitCode::SUCCESS,
-        Err(e) => crate::exit::fail(format!("{e:#}")),
+        Err(e) => failed(&e),
     }
+}
+
+/// The exit of a failed `echo` or `hz`: 1 when the instance ended under it (the group
+/// it watched is over, as `--timeout` passing is), else 2.
+fn failed(e: &anyhow::Error) -> ExitCode {
+    if let Some(ended @ inspect::InspectError::Ended(..)) = e.downcast_ref() {
+        eprintln!("error: {ended}");
+        return crate::exit::negative();
+    }
+    crate::exit::fail(format!("{e:#}"))
 }
 
 /// Where to look: `--prefix` and `--root` both given, else discovery (`AISLE_PREFIX`/

@@ -44,6 +44,12 @@ pub fn profile(a: &ProfileArgs) -> ExitCode {
     if let Err(e) = crate::file_roles::distinct(&inputs, &outputs) {
         return crate::exit::fail(e);
     }
+    // Before the record is read (a long one takes a while): an output it cannot write.
+    for (flag, p) in &outputs {
+        if let Err(e) = crate::file_roles::writable_output(flag, p) {
+            return crate::exit::fail(e);
+        }
+    }
     let budgets = match &a.budgets {
         Some(p) => match aisle_config::load::<Budgets>(p) {
             Ok(b) => Some(b),

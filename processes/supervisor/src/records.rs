@@ -4,6 +4,7 @@
 use crate::mission::MissionConfig;
 use aisle_bus::{Bus, Instance, NodeArgs};
 use aisle_messages::NodeKind;
+use aisle_messages::topics::names as s;
 use aisle_tools::lockstep::{LockstepOptions, LockstepPorts};
 use aisle_tools::{RecordFile, RecorderOptions};
 use std::collections::BTreeMap;
@@ -155,6 +156,11 @@ pub fn record(a: &RecordRequest) -> ExitCode {
         idle_stop: Some(Duration::from_secs_f64(a.idle_stop)),
         ..RecorderOptions::default()
     };
+    // Held until the record is finalised: a second command writing this file is refused.
+    let _lock = match aisle_tools::output_lock::OutputLock::acquire("-o", &a.output) {
+        Ok(l) => l,
+        Err(e) => return fail(e),
+    };
     match aisle_tools::run_recorder_with(&args, &a.output, &options) {
         Ok(s) => {
             let total: u64 = s.written.values().sum();
@@ -195,36 +201,30 @@ fn replay_lockstep(a: &ReplayRequest, instance: Option<Instance>) -> ExitCode {
     let mut consumers = Vec::new();
     for name in &a.wait_for {
         match NodeKind::from_name(name).filter(|k| NodeKind::LAUNCHED.contains(k)) {
+            // The clock is no consumer: it steps only on the supervisor's start command
+            // and every node's acknowledgement, which a replay does not publish, so
+            // waiting for it would wait for a tick it never makes.
+            Some(k) if aisle_tools::catalog::producer(s::TICK) == Some(k) => {
+                return fail(format!(
+                    "--wait-for {name}: the {name} is the group's clock (it makes the ticks and \
+                     steps on the acknowledgements of the others), so a lockstep replay \
+                     cannot drive it; wait for nodes that act on ticks: {}",
+                    lockstep_consumers().join(", ")
+                ));
+            }
             Some(k) => consumers.push(k),
-            None => return fail(format!("--wait-for: no node named `{name}`")),
+            None => {
+                return fail(format!(
+                    "--wait-for: no node named `{name}`; nodes: {}",
+                    lockstep_consumers().join(", ")
+                ));
+            }
         }
     }
     let publish = a.topics.clone();
     let start_offset_ns = (a.start * 1e9).round() as u64;
     let result = match instance {
-        Some(instance) => {
-            let opts = LockstepOptions {
-                file: a.file.clone(),
-                publish,
-                consumers,
-                compare: Vec::new(),
-                start_offset_ns,
-                ack_timeout: Duration::from_secs(60),
-            };
-            (|| -> anyhow::Result<_> {
-                let file = RecordFile::open(&a.file)?;
-                let (bus, _) = Bus::join(&instance, NodeKind::Replay, Duration::from_secs(10))?;
-                let mut ports = LockstepPorts::open(&bus, &file, &opts)?;
-                // Let the live subscribers connect to the new publishers.
-                std::thread::sleep(Duration::from_millis(200));
-                Ok(aisle_tools::lockstep::replay_lockstep(
-                    &mut ports,
-                    &file,
-                    &opts,
-                    &mut || Ok(()),
-                )?)
-            })()
-        }
+        Some(instance) => lockstep_into_live(a, instance, consumers, publish, start_offset_ns),
         None => {
             let plan = crate::replay_check::FreshGroup {
                 nodes: consumers,
@@ -248,6 +248,72 @@ fn replay_lockstep(a: &ReplayRequest, instance: Option<Instance>) -> ExitCode {
         }
         Err(e) => fail(causes(&e)),
     }
+}
+
+/// `--lockstep` into the live instance `instance`: its `consumers` must be live there,
+/// and the replay ends as soon as one leaves it (or its owner ends it) rather than
+/// waiting out the acknowledgement timeout tick after tick.
+fn lockstep_into_live(
+    a: &ReplayRequest,
+    instance: Instance,
+    consumers: Vec<NodeKind>,
+    publish: Vec<String>,
+    start_offset_ns: u64,
+) -> anyhow::Result<aisle_tools::lockstep::LockstepSummary> {
+    let opts = LockstepOptions {
+        file: a.file.clone(),
+        publish,
+        consumers,
+        compare: Vec::new(),
+        start_offset_ns,
+        ack_timeout: Duration::from_secs(60),
+    };
+    let file = RecordFile::open(&a.file)?;
+    let (bus, _) = Bus::join(&instance, NodeKind::Replay, Duration::from_secs(10))?;
+    let absent = |k: &NodeKind| {
+        !instance
+            .live_nodes()
+            .iter()
+            .any(|(name, _)| name == k.name())
+    };
+    if let Some(k) = opts.consumers.iter().find(|k| absent(k)) {
+        anyhow::bail!(
+            "--wait-for {}: no live {} in instance {}: its acknowledgements would never come",
+            k.name(),
+            k.name(),
+            instance.prefix
+        );
+    }
+    let mut ports = LockstepPorts::open(&bus, &file, &opts)?;
+    // Let the live subscribers connect to the new publishers.
+    std::thread::sleep(Duration::from_millis(200));
+    let mut watch = aisle_bus::OwnerWatch::new(&instance);
+    let mut alive = || {
+        if let Some(why) = watch.ended() {
+            return Err(why.to_string());
+        }
+        match opts.consumers.iter().find(|k| absent(k)) {
+            Some(k) => Err(format!(
+                "node `{}` left instance {}",
+                k.name(),
+                instance.prefix
+            )),
+            None => Ok(()),
+        }
+    };
+    Ok(aisle_tools::lockstep::replay_lockstep(
+        &mut ports, &file, &opts, &mut alive,
+    )?)
+}
+
+/// The nodes a lockstep replay can wait for: the launched ones but the clock.
+fn lockstep_consumers() -> Vec<&'static str> {
+    let clock = aisle_tools::catalog::producer(s::TICK);
+    NodeKind::LAUNCHED
+        .iter()
+        .filter(|k| Some(**k) != clock)
+        .map(|k| k.name())
+        .collect()
 }
 
 /// `--check`: exit 0 identical, 1 diverged, 2 the check could not run.

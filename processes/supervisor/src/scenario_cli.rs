@@ -13,6 +13,10 @@ pub enum ScenarioCommand {
     /// Write a config directory: a copy of the base one with warehouse.toml and
     /// mission.toml varied by (seed, family); the header of each says what changed.
     /// Families: moved, extra, start, gap, mission, infeasible.
+    #[command(
+        after_help = "Exit: 0 written, 2 could not (an unknown family, --out exists and is \
+not empty and no --force, no valid draw, the output not writable)."
+    )]
     Generate {
         /// Seed of the draw: the same seed and family give the same directory.
         #[arg(long)]
@@ -20,9 +24,12 @@ pub enum ScenarioCommand {
         /// What to vary: moved, extra, start, gap, mission or infeasible.
         #[arg(long)]
         family: String,
-        /// The directory to write (created; files in it are overwritten).
+        /// The directory to write (created; one that exists must be empty).
         #[arg(long)]
         out: PathBuf,
+        /// Write into --out even if it holds files (those of a config are overwritten).
+        #[arg(long)]
+        force: bool,
         /// The base config directory (default: the built-in one).
         #[arg(long)]
         config_dir: Option<PathBuf>,
@@ -55,7 +62,10 @@ pub struct SweepArgs {
 }
 
 /// `aisle scenario generate`.
-pub fn generate(seed: u64, family: &str, out: PathBuf, base: &Path) -> ExitCode {
+pub fn generate(seed: u64, family: &str, out: PathBuf, force: bool, base: &Path) -> ExitCode {
+    if let Err(e) = writable_out(&out, force) {
+        return exit::fail(e);
+    }
     let family = match crate::scenario::Family::parse(family) {
         Ok(f) => f,
         Err(e) => return exit::fail(e),
@@ -76,6 +86,31 @@ pub fn generate(seed: u64, family: &str, out: PathBuf, base: &Path) -> ExitCode 
         }
         Err(e) => exit::fail(e),
     }
+}
+
+/// Refuses an `--out` that exists and is not an empty directory, unless `force` (and a
+/// file, which no `--force` makes a directory): a config directory written over keeps
+/// files of its own beside the generated ones, and the user's edits are lost.
+pub fn writable_out(out: &Path, force: bool) -> Result<(), String> {
+    let Ok(meta) = out.symlink_metadata() else {
+        return Ok(()); // created
+    };
+    if !meta.is_dir() && !out.is_dir() {
+        return Err(format!(
+            "--out {}: exists and is not a directory",
+            out.display()
+        ));
+    }
+    let mut entries =
+        std::fs::read_dir(out).map_err(|e| format!("--out {}: {e}", out.display()))?;
+    if entries.next().is_some() && !force {
+        return Err(format!(
+            "--out {}: exists and is not empty; nothing written (--force writes into it, \
+             overwriting the config files there)",
+            out.display()
+        ));
+    }
+    Ok(())
 }
 
 /// `aisle sweep`.
@@ -117,5 +152,28 @@ pub fn sweep(a: SweepArgs, base: &Path) -> ExitCode {
         ExitCode::SUCCESS
     } else {
         exit::negative()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_existing_non_empty_out_needs_force() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("scenario");
+        writable_out(&out, false).unwrap(); // missing: created
+        std::fs::create_dir(&out).unwrap();
+        writable_out(&out, false).unwrap(); // empty
+        std::fs::write(out.join("mission.toml"), "mine").unwrap();
+        let e = writable_out(&out, false).unwrap_err();
+        assert!(
+            e.contains("--out") && e.contains("not empty") && e.contains("--force"),
+            "{e}"
+        );
+        writable_out(&out, true).unwrap();
+        let e = writable_out(&out.join("mission.toml"), true).unwrap_err();
+        assert!(e.contains("not a directory"), "{e}");
     }
 }

@@ -1,6 +1,7 @@
 //! `aisle scene generate`: a large warehouse scene written as a `warehouse.toml`, from
 //! `aisle_config::scene_gen` (which holds the layout; this module only parses flags,
-//! checks the result loads, and writes the file).
+//! checks the result loads and fits the messages, `check::scene_limits`, and writes the
+//! file).
 
 use crate::exit;
 use aisle_config::scene::Scene;
@@ -25,8 +26,9 @@ pub enum SceneSub {
     /// cross aisles, a packaging area with shelves, tables, staging pallets, movable
     /// pallet racks and loose boxes. The same flags give the same file, byte for byte.
     #[command(
-        after_help = "Exit: 0 written, 2 could not (a flag out of range, the output not \
-writable)."
+        after_help = "Exit: 0 written, 2 could not (a flag out of range, a scene larger than \
+the messages and the config reader carry: its size, its movable bodies, its floor in map \
+cells; the output not writable)."
     )]
     Generate(GenerateArgs),
 }
@@ -57,6 +59,10 @@ pub struct GenerateArgs {
     /// Chance that a storage slot holds a load (0..=1).
     #[arg(long, default_value_t = 0.6)]
     fill: f64,
+    /// Resolution of the map the scene is for (mapper.toml `cells_per_metre`; default:
+    /// the built-in one): the floor must fit a map message at it.
+    #[arg(long, default_value_t = aisle_mapper::MapConfig::default().cells_per_metre)]
+    cells_per_metre: f64,
     /// The file to write.
     #[arg(long)]
     out: PathBuf,
@@ -79,12 +85,31 @@ pub fn main(cmd: SceneCommand) -> ExitCode {
     if let Some(problem) = p.problem() {
         return exit::fail(problem);
     }
+    if !(a.cells_per_metre.is_finite() && a.cells_per_metre > 0.0) {
+        return exit::fail(format!(
+            "--cells-per-metre must be positive, got {}",
+            a.cells_per_metre
+        ));
+    }
     let text = scene_gen::generate(&p);
-    // The generator's own check: what it wrote must load as a scene.
+    // The generator's own check: what it wrote must load as a scene...
     let scene = match Scene::parse(&a.out, &text) {
         Ok(s) => s,
         Err(e) => return exit::fail(format!("the generated scene is invalid: {e}")),
     };
+    // ... and fit the messages and the reader that carry it (`check` asks the same).
+    if let Some(why) = crate::check::scene_limits::problem(text.len(), &scene, a.cells_per_metre) {
+        return exit::fail(format!(
+            "nothing written to {}: the scene would have {why}; choose fewer or \
+             narrower aisles (--aisles {}, --aisle-width {}) or a shorter --length {} \
+             (--cells-per-metre {})",
+            a.out.display(),
+            a.aisles,
+            a.aisle_width,
+            a.length,
+            a.cells_per_metre
+        ));
+    }
     if let Err(e) = std::fs::write(&a.out, &text) {
         return exit::fail(format!("{}: {e}", a.out.display()));
     }

@@ -6,13 +6,15 @@
 //! Rates are measured on this process's monotonic clock at arrival (a replay publishes
 //! recorded headers, whose wall times belong to the recording). A subscriber first
 //! receives the history of state topics; [`topics`] and [`hz`] let it arrive and drop it
-//! before they measure. Knows the topic table and the catalogue, not the processes.
+//! before they measure. [`echo`] and [`hz`] end with [`InspectError::Ended`] when the
+//! instance's owner ends it (`aisle_bus::OwnerWatch`), rather than watching a group that
+//! is gone. Knows the topic table and the catalogue, not the processes.
 
 pub mod rate;
 pub mod text;
 
 use crate::raw_ports::{RawSource, open_source};
-use aisle_bus::{Bus, BusError, clock, signals};
+use aisle_bus::{Bus, BusError, OwnerWatch, clock, signals};
 use aisle_messages::topics;
 use rate::{RateStats, rate_stats};
 use std::time::Duration;
@@ -31,6 +33,17 @@ pub enum InspectError {
     Subscribe { topic: String, source: BusError },
     #[error(transparent)]
     Bus(#[from] BusError),
+    /// The instance's owner ended it (`aisle_bus::OwnerWatch`): nothing more comes.
+    #[error("{0}: nothing more will be published on `{1}`")]
+    Ended(String, String),
+}
+
+/// [`InspectError::Ended`] once the watched instance has ended.
+fn check_ended(watch: &mut OwnerWatch, topic: &str) -> Result<(), InspectError> {
+    match watch.ended() {
+        Some(why) => Err(InspectError::Ended(why.to_string(), topic.to_string())),
+        None => Ok(()),
+    }
 }
 
 /// One row of `aisle topics`.
@@ -127,7 +140,8 @@ pub struct EchoOptions {
 }
 
 /// Hands each sample of `topic` to `print` as text (history first), until `count`
-/// samples, the timeout or a stop request. Returns the samples printed.
+/// samples, the timeout or a stop request. Returns the samples printed;
+/// [`InspectError::Ended`] when the instance ends first.
 pub fn echo(
     bus: &Bus,
     topic: &str,
@@ -139,8 +153,10 @@ pub fn echo(
     let deadline = opts
         .timeout
         .map(|t| clock::monotonic_ns() + t.as_nanos() as u64);
+    let mut watch = OwnerWatch::new(bus.instance());
     let mut printed = 0;
     while opts.count.is_none_or(|c| printed < c) {
+        check_ended(&mut watch, topic)?;
         let slice = match deadline {
             Some(d) => {
                 let now = clock::monotonic_ns();
@@ -167,7 +183,8 @@ pub fn echo(
 
 /// Measures `topic` window after window (its history dropped first) and hands each
 /// window's statistics to `report` (`None` for a window with fewer than two samples),
-/// `reports` times or until a stop request. Returns the windows measured.
+/// `reports` times or until a stop request. Returns the windows measured;
+/// [`InspectError::Ended`] when the instance ends first.
 pub fn hz(
     bus: &Bus,
     topic: &str,
@@ -183,12 +200,14 @@ pub fn hz(
     let Some(source) = &sources[0] else {
         return Ok(0);
     };
+    let mut watch = OwnerWatch::new(bus.instance());
     let mut done = 0;
     let mut arrivals: Vec<u64> = Vec::with_capacity(1024);
     while reports.is_none_or(|r| done < r) {
         arrivals.clear();
         let end = clock::monotonic_ns() + window.as_nanos() as u64;
         loop {
+            check_ended(&mut watch, topic)?;
             let now = clock::monotonic_ns();
             if now >= end {
                 break;

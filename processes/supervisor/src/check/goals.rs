@@ -1,8 +1,8 @@
 //! What stands where a leg ends, against the scene's bodies: the robot's footprint at
 //! the goal (the carrying footprint too on a `carry` leg), the turning circle of a turn
 //! in place, and a carried body where it is set down (against every other body, static
-//! or movable, and the map's extent); and, where a carry leg starts, the robot under the
-//! body it picks up.
+//! or movable, kept the least margin a carrying plan backs off to away, and the map's
+//! extent); and, where a carry leg starts, the robot under the body it picks up.
 //!
 //! The shapes and the contact rule are the simulator's (`aisle_simulator::collision`:
 //! upright boxes, touching counts, a deck above the robot is no obstacle), so what is
@@ -208,7 +208,8 @@ pub fn check_pick(view: &LegView, g: &Ground, tolerance: f64) -> Result<(), Refu
 }
 
 /// On a carry leg: the carried body's footprint where it is set down must stay on the
-/// map and clear of every other body of the scene (a rack set down on a pallet, a shelf
+/// map and clear of every other body of the scene, static or movable, by the least
+/// margin a carrying plan backs off to (a rack set down on or against a pallet, a shelf
 /// or another rack is no drop).
 pub fn check_drop(view: &LegView, g: &Ground) -> Result<(), Refusal> {
     let Some((carried, drops)) = &view.drop else {
@@ -216,6 +217,10 @@ pub fn check_drop(view: &LegView, g: &Ground) -> Result<(), Refusal> {
     };
     let body = &g.scene.bodies[*carried];
     let f = body.footprint();
+    // The clearance the planner needs at the goal (the least margin a carrying plan
+    // backs off to, as `arrival::check_goal_clear` asks of the static map): a body set
+    // down closer to another is a goal the lidar shows blocked.
+    let clear = crate::mission::least_margin(g.robot.footprint.carrying.margin);
     let (x0, y0, x1, y1) = g.map;
     let mut first = None;
     for d in drops {
@@ -223,10 +228,11 @@ pub fn check_drop(view: &LegView, g: &Ground) -> Result<(), Refusal> {
         let why = if !f.corners(d).iter().all(inside) {
             format!("leaves the map: x {x0}..{x1} m, y {y0}..{y1} m (mapper.toml origin and size)")
         } else {
-            let shape = Shape::rect(*d, f, ALL_HEIGHTS);
+            let shape = Shape::rect(*d, f.inflated(clear), ALL_HEIGHTS);
             match first_touched(&shape, view, g, |i, _| i != *carried) {
                 Some(i) => format!(
-                    "overlaps body `{}` of {}",
+                    "overlaps body `{}` of {} or comes within {clear} m of it (the least \
+                     margin a carrying plan backs off to, robot.toml footprint.carrying)",
                     g.scene.bodies[i].name,
                     g.scene_path.display()
                 ),

@@ -177,6 +177,30 @@ fn a_drop_onto_another_body_names_both() {
 }
 
 #[test]
+fn a_drop_beside_another_body_keeps_the_carrying_margin_clear() {
+    let f = Fixture::shipped("drop-beside");
+    // Set down facing west (the seed's pick turns it): 0.88 m along x. 1 cm east of
+    // pallet_leg3 (1.2 m long at x = 6.3) and then 5 cm: both within the 0.1 m the
+    // least carrying margin keeps; 0.2 m away is a drop.
+    for gap in [0.01, 0.05] {
+        let x = 6.3 + 0.6 + gap + 0.44;
+        refused(
+            &f,
+            &seed_with(DROP, &format!("goal = [{x}, 2.5, 0.0]")),
+            &[
+                "key `leg[2].goal`",
+                "sets `rack2b` down",
+                "body `pallet_leg3`",
+                "within 0.1 m",
+                "footprint.carrying",
+            ],
+        );
+    }
+    f.check(&seed_with(DROP, "goal = [7.54, 2.5, 0.0]"))
+        .unwrap();
+}
+
+#[test]
 fn a_drop_off_the_map_is_refused() {
     // No west wall: the robot fits at the map's edge, the rack it carries does not.
     let f = Fixture::with_scene(

@@ -10,6 +10,7 @@
 use super::arrival;
 use super::goals::{self, Refusal};
 use super::legs::{self, LegView};
+use super::open_side;
 use super::reach::{Reach, Verdict};
 use crate::mission::MissionConfig;
 use aisle_config::ConfigError;
@@ -33,6 +34,8 @@ pub struct Ground<'a> {
     /// The static map the planner plans on first (`mapper.toml`), and that file.
     pub static_map: GridView<'a>,
     pub map_path: &'a Path,
+    /// How the planner lays out its straight moves under a body (`planner.toml`).
+    pub dock: aisle_global_planner::dock::DockParams,
 }
 
 /// Checks the start pose and every leg's goal of `mission` (read from `path`).
@@ -103,6 +106,7 @@ pub fn check_mission(
         goals::check_pick(&view, ground, tolerance)
             .and_then(|()| arrival::check_rotate(&view, tolerance))
             .and_then(|()| arrival::check_approach(&view, ground, tolerance))
+            .and_then(|()| open_side::check_open_side(&view, ground))
             .and_then(|()| goals::check_goal(&view, ground))
             .and_then(|()| goals::check_drop(&view, ground))
             .and_then(|()| reachable(&view, ground, &mut reach))
@@ -214,6 +218,7 @@ mod tests {
             map: map.view().bounds(),
             static_map: map.view(),
             map_path: &shipped("mapper.toml"),
+            dock: super::super::open_side::params(&Default::default()),
         };
         check_mission(&mission, &path, &ground)
     }

@@ -16,6 +16,7 @@ pub struct Fixture {
     robot: RobotConfig,
     model: RobotModel,
     map: GridMap,
+    planner: aisle_global_planner::PlannerConfig,
     dir: PathBuf,
 }
 
@@ -47,6 +48,7 @@ impl Fixture {
             robot,
             model,
             map,
+            planner: aisle_config::load(&shipped("planner.toml")).unwrap(),
             dir,
         }
     }
@@ -64,6 +66,7 @@ impl Fixture {
             map: self.map.view().bounds(),
             static_map: self.map.view(),
             map_path: &shipped("mapper.toml"),
+            dock: super::open_side::params(&self.planner),
         };
         check_mission(&mission, &path, &ground).map_err(|e| e.to_string())
     }

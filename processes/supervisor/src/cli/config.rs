@@ -183,8 +183,14 @@ mod tests {
         for e in std::fs::read_dir(dir).unwrap() {
             let p = e.unwrap().path();
             if p.is_dir() {
-                // Config directories of their own (`config/large/`) are not built in.
-                if !p.join("warehouse.toml").exists() {
+                // Config directories of their own (`config/large/`) are not built in, nor
+                // folders of them (`config/growth/`).
+                let config_dir = |d: &Path| d.join("warehouse.toml").exists();
+                let holds_config_dirs = std::fs::read_dir(&p)
+                    .unwrap()
+                    .flatten()
+                    .any(|e| e.path().is_dir() && config_dir(&e.path()));
+                if !config_dir(&p) && !holds_config_dirs {
                     walk(root, &p, out);
                 }
             } else {
@@ -194,8 +200,8 @@ mod tests {
         }
     }
 
-    /// Every file of `config/` (but `large/`, a config directory of its own) is in the
-    /// binary, byte for byte, and nothing else is.
+    /// Every file of `config/` (but `large/` and `growth/`: config directories of their
+    /// own) is in the binary, byte for byte, and nothing else is.
     #[test]
     fn every_config_file_is_embedded() {
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config");
@@ -216,7 +222,11 @@ mod tests {
             );
         }
         assert!(embedded.contains_key("graph.toml") && embedded.contains_key("jackal.urdf"));
-        assert!(!embedded.keys().any(|k| k.starts_with("large/")));
+        assert!(
+            !embedded
+                .keys()
+                .any(|k| k.starts_with("large/") || k.starts_with("growth/"))
+        );
     }
 
     #[test]

@@ -60,6 +60,25 @@ pub fn base_of(dir: &Path) -> anyhow::Result<Option<Base>> {
             base.display()
         );
     }
+    // Looked at before anything is copied: a base is copied whole, recursively, so a
+    // directory that is not a config (`/`, a home directory) would be copied whole.
+    let files = crate::check::ConfigFiles::in_dir(&base);
+    let missing: Vec<String> = files
+        .all()
+        .iter()
+        .filter(|p| !p.is_file())
+        .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .collect();
+    if !missing.is_empty() {
+        bail!(
+            "{}: key `base`: {} (\"{}\") is not a config directory: it has no {} (a base \
+             holds every file a config needs; or \"{BUILT_IN}\")",
+            file.display(),
+            base.display(),
+            parsed.base,
+            missing.join(", ")
+        );
+    }
     Ok(Some(Base::Dir(base)))
 }
 
@@ -102,6 +121,9 @@ mod tests {
         let over = root.path().join("over");
         std::fs::create_dir_all(&whole).unwrap();
         std::fs::create_dir_all(&over).unwrap();
+        for f in crate::check::ConfigFiles::in_dir(&whole).all() {
+            std::fs::write(f, "").unwrap();
+        }
         assert_eq!(base_of(&whole).unwrap(), None);
         std::fs::write(over.join(OVERLAY_FILE), "base = \"../whole\"\n").unwrap();
         assert_eq!(
@@ -114,6 +136,11 @@ mod tests {
             ("base = \"../missing\"\n", "not a directory"),
             ("base = \"../over\"\n", "do not nest"),
             ("bas = \"built-in\"\n", "invalid"),
+            (
+                "base = \"/\"\n",
+                "is not a config directory: it has no warehouse.toml",
+            ),
+            ("base = \"..\"\n", "is not a config directory"),
         ] {
             std::fs::write(over.join(OVERLAY_FILE), text).unwrap();
             let e = format!("{:#}", base_of(&over).unwrap_err());

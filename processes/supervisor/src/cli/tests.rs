@@ -101,3 +101,15 @@ fn the_version_names_commit_and_schema() {
     assert!(v.contains("commit "), "{v}");
     assert!(v.contains(&aisle_messages::schema_hash_hex()), "{v}");
 }
+
+#[test]
+fn a_map_export_name_stays_inside_its_directory() {
+    let parse = |name: &str| {
+        super::command().try_get_matches_from(["aisle", "map", "export", "out", "--name", name])
+    };
+    for bad in ["", ".", "..", "../evil", "a/b"] {
+        let e = parse(bad).unwrap_err().to_string();
+        assert!(e.contains("is not a file name"), "{bad:?}: {e}");
+    }
+    parse("warehouse_2").unwrap();
+}

@@ -5,6 +5,7 @@ use aisle_config::ConfigError;
 use aisle_config::scene::Scene;
 use aisle_geometry::Pose2;
 use serde::Deserialize;
+use std::f64::consts::{PI, TAU};
 use std::path::Path;
 
 /// Builds the error for a bad key of the file being loaded.
@@ -59,6 +60,46 @@ pub struct MissionConfig {
     pub leg: Vec<LegSpec>,
 }
 
+/// The longest sim time a leg may take or stall (one day).
+const MAX_SIM_SECONDS: f64 = 86_400.0;
+/// The longest controller period: far beyond any controller's horizon.
+const MAX_CONTROLLER_PERIOD_S: f64 = 60.0;
+/// Most replans per leg, and most steps of cooldown between them.
+const MAX_COUNT: u32 = 10_000;
+/// The widest position tolerance of a goal (metres): a wider one counts a leg as
+/// arrived a robot length or more away from where the file says.
+const MAX_TOLERANCE_M: f64 = 2.0;
+/// The farthest a position may lie from the map frame's origin (metres): whether it lies
+/// on the map is `check`'s question (`mapper.toml`); beyond this it is no position.
+const MAX_COORDINATE_M: f64 = 1.0e6;
+
+/// A pose `[x, y, heading]` of the mission file at `key`: finite, a position within
+/// [`MAX_COORDINATE_M`] of the origin and a heading within one turn either way.
+fn check_pose(key: &str, pose: &[f64; 3], bad: &Invalid) -> Result<(), ConfigError> {
+    if !pose.iter().all(|v| v.is_finite()) {
+        return Err(bad(key, format!("not finite: {pose:?}")));
+    }
+    if pose[0].abs() > MAX_COORDINATE_M || pose[1].abs() > MAX_COORDINATE_M {
+        return Err(bad(
+            key,
+            format!(
+                "x and y must be within -{MAX_COORDINATE_M}..={MAX_COORDINATE_M} m, got {pose:?}"
+            ),
+        ));
+    }
+    // A little over a turn, so that 2 pi written out in decimals still passes.
+    if pose[2].abs() > TAU + 1e-9 {
+        return Err(bad(
+            key,
+            format!(
+                "the heading must be within -2 pi..=2 pi rad (one turn either way), got {:?}",
+                pose[2]
+            ),
+        ));
+    }
+    Ok(())
+}
+
 fn default_rate() -> f64 {
     10.0
 }
@@ -93,28 +134,29 @@ impl MissionConfig {
     }
 
     /// The start pose, the timing and the tolerances; the first error found, in the
-    /// order the file documents them.
+    /// order the file documents them. Every number has a range: a finite but absurd
+    /// value (a heading of 1e300, a tolerance of a kilometre) is refused here, naming
+    /// the key, rather than driven.
     fn check_numbers(&self, bad: &Invalid) -> Result<(), ConfigError> {
-        if !self.start.iter().all(|v| v.is_finite()) {
-            return Err(bad("start", format!("not finite: {:?}", self.start)));
+        check_pose("start", &self.start, bad)?;
+        for (key, v, max) in [
+            ("leg_timeout_s", self.leg_timeout_s, MAX_SIM_SECONDS),
+            ("stall_timeout_s", self.stall_timeout_s, MAX_SIM_SECONDS),
+        ] {
+            if !(v.is_finite() && v > 0.0 && v <= max) {
+                return Err(bad(
+                    key,
+                    format!("must be a number of seconds within (0, {max}], got {v:?}"),
+                ));
+            }
         }
-        if !(self.leg_timeout_s.is_finite() && self.leg_timeout_s > 0.0) {
-            return Err(bad(
-                "leg_timeout_s",
-                format!(
-                    "must be a positive number of seconds, got {}",
-                    self.leg_timeout_s
-                ),
-            ));
-        }
-        if !(self.stall_timeout_s.is_finite() && self.stall_timeout_s > 0.0) {
-            return Err(bad(
-                "stall_timeout_s",
-                format!(
-                    "must be a positive number of seconds, got {}",
-                    self.stall_timeout_s
-                ),
-            ));
+        for (key, v) in [
+            ("max_replans_per_leg", self.max_replans_per_leg),
+            ("replan_cooldown_steps", self.replan_cooldown_steps),
+        ] {
+            if v > MAX_COUNT {
+                return Err(bad(key, format!("must be at most {MAX_COUNT}, got {v}")));
+            }
         }
         if !(self.update_rate_hz.is_finite()
             && self.update_rate_hz >= 1.0
@@ -122,15 +164,20 @@ impl MissionConfig {
         {
             return Err(bad(
                 "update_rate_hz",
-                format!("must be within 1..=1000 Hz, got {}", self.update_rate_hz),
+                format!("must be within 1..=1000 Hz, got {:?}", self.update_rate_hz),
             ));
         }
         let ticks = self.controller_period_s * self.update_rate_hz;
-        if !(ticks.is_finite() && ticks >= 0.999 && (ticks - ticks.round()).abs() < 1e-6) {
+        if !(ticks.is_finite()
+            && ticks >= 0.999
+            && (ticks - ticks.round()).abs() < 1e-6
+            && self.controller_period_s <= MAX_CONTROLLER_PERIOD_S)
+        {
             return Err(bad(
                 "controller_period_s",
                 format!(
-                    "must be a whole number (>= 1) of ticks of 1/update_rate_hz, got {} s",
+                    "must be a whole number (>= 1) of ticks of 1/update_rate_hz, at most \
+                     {MAX_CONTROLLER_PERIOD_S} s, got {:?} s",
                     self.controller_period_s
                 ),
             ));
@@ -142,20 +189,19 @@ impl MissionConfig {
             return Err(bad(
                 "planner_timeout_s",
                 format!(
-                    "must be within 0.001..=3600 s, got {}",
+                    "must be within 0.001..=3600 s, got {:?}",
                     self.planner_timeout_s
                 ),
             ));
         }
-        if !self
-            .goal_tolerance
-            .iter()
-            .all(|v| v.is_finite() && *v > 0.0)
-        {
+        let [tx, ty, th] = self.goal_tolerance;
+        let in_range = |v: f64, max: f64| v.is_finite() && v > 0.0 && v <= max;
+        if !(in_range(tx, MAX_TOLERANCE_M) && in_range(ty, MAX_TOLERANCE_M) && in_range(th, PI)) {
             return Err(bad(
                 "goal_tolerance",
                 format!(
-                    "must be three positive numbers, got {:?}",
+                    "must be x and y within (0, {MAX_TOLERANCE_M}] m and a heading within \
+                     (0, pi] rad, got {:?}",
                     self.goal_tolerance
                 ),
             ));
@@ -208,11 +254,8 @@ impl LegSpec {
     /// Leg `i` (0-based) against the scene: a finite goal, bodies that exist and can
     /// move, and no contradictory options.
     fn check(&self, i: usize, scene: &Scene, bad: &Invalid) -> Result<(), ConfigError> {
-        if !self.goal.iter().all(|v| v.is_finite()) {
-            return Err(bad(
-                &format!("leg[{i}].goal"),
-                format!("not finite: {:?}", self.goal),
-            ));
+        if self.goal_given.is_some() {
+            check_pose(&format!("leg[{i}].goal"), &self.goal, bad)?;
         }
         for (key, body) in [("carry", &self.carry), ("approach", &self.approach)] {
             if let Some(name) = body {
@@ -238,7 +281,7 @@ impl LegSpec {
         {
             return Err(bad(
                 &format!("leg[{i}].depart"),
-                format!("must be within (0, 5] metres, got {d}"),
+                format!("must be within (0, 5] metres, got {d:?}"),
             ));
         }
         if self.rotate && self.depart.is_some() {
@@ -254,5 +297,95 @@ impl LegSpec {
             ));
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use aisle_config::testing::shipped;
+
+    /// Loads the shipped mission with `from` replaced by `to`; the error, if any.
+    fn load_with(from: &str, to: &str) -> Result<MissionConfig, String> {
+        let text = std::fs::read_to_string(shipped("mission.toml")).unwrap();
+        let changed = text.replacen(from, to, 1);
+        assert!(changed != text, "{from} not in mission.toml");
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("mission.toml");
+        std::fs::write(&path, changed).unwrap();
+        let scene = Scene::load(&shipped("warehouse.toml")).unwrap();
+        MissionConfig::load(&path, &scene).map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn every_number_has_a_range_and_an_absurd_one_names_its_key() {
+        let pick = "goal = [2.0, 13.0, 1.5707963267948966]";
+        for (from, to, key) in [
+            (pick, "goal = [2.0, 13.0, 1e300]", "leg[0].goal"),
+            (pick, "goal = [2.0, 13.0, -7.0]", "leg[0].goal"),
+            (pick, "goal = [1e300, 13.0, 0.0]", "leg[0].goal"),
+            (
+                "start = [0.0, 0.0, 0.0]",
+                "start = [0.0, 0.0, 1e300]",
+                "start",
+            ),
+            (
+                "start = [0.0, 0.0, 0.0]",
+                "start = [0.0, -2e6, 0.0]",
+                "start",
+            ),
+            (
+                "goal_tolerance = [0.2, 0.2, 0.2]",
+                "goal_tolerance = [1e300, 0.2, 0.2]",
+                "goal_tolerance",
+            ),
+            (
+                "goal_tolerance = [0.2, 0.2, 0.2]",
+                "goal_tolerance = [0.2, 0.2, 4.0]",
+                "goal_tolerance",
+            ),
+            (
+                "leg_timeout_s = 120.0",
+                "leg_timeout_s = 1e300",
+                "leg_timeout_s",
+            ),
+            (
+                "stall_timeout_s = 10.0",
+                "stall_timeout_s = 1e9",
+                "stall_timeout_s",
+            ),
+            (
+                "controller_period_s = 0.5",
+                "controller_period_s = 1e12",
+                "controller_period_s",
+            ),
+            (
+                "max_replans_per_leg = 12",
+                "max_replans_per_leg = 4000000000",
+                "max_replans_per_leg",
+            ),
+            (
+                "replan_cooldown_steps = 2",
+                "replan_cooldown_steps = 4000000000",
+                "replan_cooldown_steps",
+            ),
+        ] {
+            let e = load_with(from, to).unwrap_err();
+            assert!(
+                e.contains("mission.toml:") && e.contains(&format!("key `{key}`")),
+                "{to}: {e}"
+            );
+        }
+        // A heading written as a full turn, and the widest tolerances, still load.
+        load_with(
+            "goal = [6.0, 8.0, 1.5707963267948966]",
+            "goal = [6.0, 8.0, 6.283185307179586]",
+        )
+        .unwrap();
+        load_with(
+            "goal_tolerance = [0.2, 0.2, 0.2]",
+            "goal_tolerance = [2.0, 2.0, 3.141592653589793]",
+        )
+        .unwrap();
     }
 }

@@ -1,6 +1,7 @@
 //! Everything a run needs before anything is launched: the checked config directory,
 //! the scene, mission, budgets, footprints, restart policy and graph, and the parsed fault
-//! injections. Loading fails before a single process exists.
+//! injections; the outputs locked against a concurrent command writing them. Loading
+//! fails before a single process exists.
 
 use super::RunOptions;
 use crate::check::{self, ConfigFiles};
@@ -10,6 +11,7 @@ use aisle_config::scene::Scene;
 use aisle_messages::NodeKind;
 use aisle_node::Graph;
 use aisle_tools::latency::Budgets;
+use aisle_tools::output_lock::OutputLock;
 use anyhow::{anyhow, bail};
 use std::path::{Path, PathBuf};
 
@@ -28,6 +30,9 @@ pub(super) struct RunConfig {
     pub record: Option<PathBuf>,
     /// `--hosts`: the group spread over hosts; `None` runs every node here.
     pub placement: Option<aisle_link::Placement>,
+    /// The outputs (`--record`, `--report`, `--samples`) locked for this run: another
+    /// command naming one of them is refused until the run ends.
+    pub _outputs: Vec<OutputLock>,
 }
 
 impl RunConfig {
@@ -69,6 +74,16 @@ impl RunConfig {
         let mut inputs: Vec<(&str, &Path)> = vec![("the mission", mission_path.as_path())];
         inputs.extend(files.all().into_iter().map(|p| ("a config file", p)));
         crate::file_roles::distinct(&inputs, &outputs).map_err(|e| anyhow!(e))?;
+        // Before launch: two runs writing one file would interleave into a corrupt one.
+        let locked = [
+            ("--report", opts.report.as_deref()),
+            ("--samples", opts.samples.as_deref()),
+            ("--record", record.as_deref()),
+        ];
+        let _outputs = locked
+            .into_iter()
+            .filter_map(|(flag, p)| Some(OutputLock::acquire(flag, p?)))
+            .collect::<Result<Vec<_>, _>>()?;
         check::check_dir(&opts.config_dir).map_err(|e| anyhow!(e))?;
         let ground = check::Loaded::load(&files).map_err(|e| anyhow!(e))?;
         let mission =
@@ -102,6 +117,7 @@ impl RunConfig {
             .map(|p| crate::remote::load_placement(p, &graph))
             .transpose()?;
         Ok(RunConfig {
+            _outputs,
             placement,
             record,
             restart,
@@ -131,64 +147,17 @@ fn parse_kill(spec: &str, graph: &Graph) -> anyhow::Result<(NodeKind, u64)> {
 }
 
 /// An output file the run will write at its end (`--report`): refused now, before
-/// anything is launched, when it is a directory or its directory is missing or not
-/// writable. Names the path and the OS error.
+/// anything is launched ([`crate::file_roles::writable_output`]).
 pub(crate) fn writable_output(flag: &str, path: &Path) -> anyhow::Result<()> {
-    output_shape(flag, path)?;
-    output_access(flag, path)
+    crate::file_roles::writable_output(flag, path).map_err(|e| anyhow!(e))
 }
 
-/// The path can name an output file: not empty, not a directory, in a directory that
-/// exists.
 fn output_shape(flag: &str, path: &Path) -> anyhow::Result<()> {
-    if path.as_os_str().is_empty() {
-        bail!("{flag}: the path is empty");
-    }
-    if path.is_dir() {
-        bail!("{flag} {}: is a directory", path.display());
-    }
-    let parent = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let meta = std::fs::metadata(parent).map_err(|e| {
-        anyhow!(
-            "{flag} {}: directory {}: {e}",
-            path.display(),
-            parent.display()
-        )
-    })?;
-    if !meta.is_dir() {
-        bail!(
-            "{flag} {}: {} is not a directory",
-            path.display(),
-            parent.display()
-        );
-    }
-    Ok(())
+    crate::file_roles::output_shape(flag, path).map_err(|e| anyhow!(e))
 }
 
-/// The caller may write the output file (or create it in its directory).
 fn output_access(flag: &str, path: &Path) -> anyhow::Result<()> {
-    let parent = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    // Ask the kernel (it knows read-only mounts, ACLs and the caller's groups) instead
-    // of creating a file the run might not write after all.
-    let target = if path.exists() { path } else { parent };
-    let c = std::ffi::CString::new(std::os::unix::ffi::OsStrExt::as_bytes(target.as_os_str()))
-        .map_err(|_| anyhow!("{flag} {}: the path holds a NUL byte", path.display()))?;
-    // SAFETY: `c` is a valid NUL-terminated string that outlives the call.
-    if unsafe { libc::access(c.as_ptr(), libc::W_OK) } != 0 {
-        let e = std::io::Error::last_os_error();
-        bail!(
-            "{flag} {}: cannot write {}: {e}",
-            path.display(),
-            target.display()
-        );
-    }
-    Ok(())
+    crate::file_roles::output_access(flag, path).map_err(|e| anyhow!(e))
 }
 
 #[cfg(test)]
