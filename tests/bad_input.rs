@@ -457,3 +457,87 @@ fn a_scene_with_more_movable_bodies_than_ground_truth_holds_is_refused_naming_it
         ],
     );
 }
+
+#[test]
+fn render_to_an_extension_it_cannot_write_is_refused_before_reading_the_record() {
+    let dir = TestDir::new("render-ext");
+    let jpg = dir.path("x.jpg");
+    // The record does not exist: the extension is refused first, naming it and what
+    // is supported, and nothing is written.
+    let (code, err) = run_refused(&dir, &["render", "/nonexistent/run.mcap", "-o", s(&jpg)]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("x.jpg") && err.contains(".jpg file"), "{err}");
+    assert!(err.contains(".png") && err.contains(".html"), "{err}");
+    assert!(!err.contains("/nonexistent/run.mcap"), "{err}");
+    assert!(!jpg.exists(), "nothing written");
+}
+
+#[test]
+fn a_timed_replay_that_publishes_nothing_says_so_and_exits_2() {
+    let dir = TestDir::new("replay-nothing");
+    let rec = dir.path("run.mcap");
+    let file = std::fs::File::create(&rec).unwrap();
+    aisle_tools::synthetic::write_synthetic(file, 20, aisle_tools::WriterOptions::default())
+        .unwrap();
+    // Every message is before --start: nothing is replayed.
+    let (code, err) = run_refused(
+        &dir,
+        &[
+            "replay",
+            s(&rec),
+            "--fast",
+            "--topics",
+            "aisle/robot_state",
+            "--start",
+            "9999",
+        ],
+    );
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("published nothing") && err.contains("run.mcap"),
+        "{err}"
+    );
+    assert!(err.contains("--topics aisle/robot_state"), "{err}");
+}
+
+#[test]
+fn render_profile_and_export_refuse_an_output_another_command_writes_now() {
+    let dir = TestDir::new("locked-outputs");
+    let rec = dir.path("run.mcap");
+    let file = std::fs::File::create(&rec).unwrap();
+    aisle_tools::synthetic::write_synthetic(file, 20, aisle_tools::WriterOptions::default())
+        .unwrap();
+    let (png, json, svg, bag) = (
+        dir.path("x.png"),
+        dir.path("x.json"),
+        dir.path("x.svg"),
+        dir.path("x.mcap"),
+    );
+    for (args, out) in [
+        (vec!["render", s(&rec), "-o", s(&png)], &png),
+        (vec!["profile", s(&rec), "--json", s(&json)], &json),
+        (vec!["profile", s(&rec), "--samples", s(&json)], &json),
+        (vec!["profile", s(&rec), "--svg", s(&svg)], &svg),
+        (vec!["export", "--ros2", s(&rec), s(&bag)], &bag),
+    ] {
+        std::fs::write(out, b"the other command's").unwrap();
+        // Another command writing the file now: this process holds its lock.
+        let held = aisle_tools::output_lock::OutputLock::acquire("-o", out).unwrap();
+        let (code, err) = run_refused(&dir, &args);
+        assert_eq!(code, Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains("another command") && err.contains(s(out)),
+            "{args:?}: {err}"
+        );
+        assert!(
+            err.contains(&format!("pid {}", std::process::id())),
+            "{args:?}: {err}"
+        );
+        assert_eq!(
+            std::fs::read(out).unwrap(),
+            b"the other command's",
+            "{args:?}"
+        );
+        drop(held);
+    }
+}

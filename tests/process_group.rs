@@ -478,6 +478,27 @@ fn a_recorded_run_profiles_renders_and_survives_truncation() {
         text.contains("damaged") || text.contains("truncated"),
         "{text}"
     );
+    // The damage said once (it was in the table's note and again after the table).
+    assert_eq!(
+        text.matches("the readable part ends").count(),
+        1,
+        "one damage note: {text}"
+    );
+    // Every message readable but no summary (cut in its summary): said, once, exit 2.
+    std::fs::write(&cut, &bytes[..bytes.len() - 100]).unwrap();
+    let p = run(&dir.run_dir(), &["profile", cut.to_str().unwrap()]);
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&p.stdout),
+        String::from_utf8_lossy(&p.stderr)
+    );
+    assert_eq!(p.status.code(), Some(2), "{text}");
+    assert_eq!(text.matches("no summary").count(), 1, "{text}");
+    assert_eq!(
+        text.matches("profiled what could be read").count(),
+        1,
+        "{text}"
+    );
 }
 
 #[test]

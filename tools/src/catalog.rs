@@ -59,6 +59,48 @@ pub fn producer(service: &str) -> Option<NodeKind> {
     GRAPH.producer(service)
 }
 
+/// How many leading bytes of a `type_name` payload its fields use
+/// ([`Message::used_len`](aisle_messages::Message::used_len): a cloud's points or a
+/// grid's cells in use, not the capacity); `None` when `type_name` is not a message of
+/// the catalogue. A short payload reads as zeros past its end.
+pub fn used_len(type_name: &str, bytes: &[u8]) -> Option<usize> {
+    macro_rules! each {
+        ($($t:ty),* $(,)?) => {
+            $(if type_name == <$t>::TYPE_NAME {
+                return Some(used_of::<$t>(bytes));
+            })*
+        };
+    }
+    each!(
+        InstanceInfo,
+        GroupMembers,
+        Tick,
+        TickDone,
+        Heartbeat,
+        RobotState,
+        WorldTruth,
+        SimCommand,
+        SimState,
+        PointCloud,
+        OccupancyGrid,
+        MapperControl,
+        PlanRequest,
+        PlanResponse,
+        ControllerGoal,
+        Trajectory,
+        ControllerBand,
+        MissionStatus,
+    );
+    None
+}
+
+fn used_of<M: aisle_messages::Message>(bytes: &[u8]) -> usize {
+    let size = std::mem::size_of::<M>();
+    let mut buf = crate::aligned::AlignedBuf::new();
+    buf.set_padded(&bytes[..bytes.len().min(size)], size);
+    buf.view::<M>().map_or(size, |m| m.used_len().min(size))
+}
+
 fn fnv1a(hash: &mut u64, bytes: &[u8]) {
     for b in bytes {
         *hash ^= u64::from(*b);

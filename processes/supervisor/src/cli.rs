@@ -88,7 +88,7 @@ key), 2 the config directory cannot be read."
     #[command(
         after_help = "Exit: 0 replayed (--check: identical), 1 --check diverged \
 (the first divergence is printed), 2 could not (unreadable or damaged record, no group, \
-setup failure)."
+setup failure, nothing published: no message on the topics from --start)."
     )]
     Replay(ReplayArgs),
     /// Record a running group (`--prefix`/`--root` as `aisle run` logs them) to an MCAP
@@ -99,16 +99,21 @@ setup failure)."
     /// `budgets.toml` attached to the record.
     #[command(
         after_help = "Exit: 0 profiled (a damaged file: what could be read, said so), \
-2 could not (unreadable record, invalid budgets, unwritable output)."
+2 could not (unreadable record, invalid budgets, unwritable output or one another \
+command writes now)."
     )]
     Profile(crate::profile_cli::ProfileArgs),
     /// Draw the top view of a recorded run as a PNG, or (`-o run.html`) a self-contained
     /// page that plays the run back.
-    #[command(after_help = "Exit: 0 written, 2 could not (unreadable record, unwritable output).")]
+    #[command(
+        after_help = "Exit: 0 written, 2 could not (unreadable record, unwritable output, \
+an output not .png, .svg or .html, an output another command writes now)."
+    )]
     Render {
         /// The MCAP record (`aisle run --record`).
         file: PathBuf,
-        /// The picture (`.png`) or page (`.html`) to write.
+        /// The picture (`.png`, `.svg`) or page (`.html`) to write; any other extension
+        /// is refused.
         #[arg(short, long)]
         output: PathBuf,
         /// Scale of the picture.

@@ -3,6 +3,7 @@
 //! conversion itself is the tools crate's.
 
 use crate::exit;
+use aisle_tools::output_lock::{LockError, OutputLock};
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -19,8 +20,8 @@ pub enum ExportCommand {
     /// /tf and /tf_static (frames map, odom, base_link, sensor).
     #[command(
         after_help = "Exit: 0 written, 2 could not (missing or unreadable file, not an \
-aisle record, a damaged or truncated record, output not writable, output is the record \
-itself). Of a damaged record the readable part is still written, and the error says so."
+aisle record, a damaged or truncated record, output not writable or written by another \
+command now, output is the record itself). Of a damaged record the readable part is still written, and the error says so."
     )]
     Export(ExportArgs),
 }
@@ -40,6 +41,11 @@ pub struct ExportArgs {
 
 pub fn main(cmd: ExportCommand) -> ExitCode {
     let ExportCommand::Export(a) = cmd;
+    // Held until the bag is in place: a second command writing it now is refused.
+    let _lock = match lock_output(&a) {
+        Ok(l) => l,
+        Err(e) => return exit::fail(e),
+    };
     match aisle_tools::ros2::export_ros2(&a.record, &a.output) {
         Ok(summary) => {
             if summary.skipped > 0 {
@@ -64,5 +70,19 @@ pub fn main(cmd: ExportCommand) -> ExitCode {
             }
         }
         Err(e) => exit::fail(e),
+    }
+}
+
+/// The lock on the bag, or `None` where the export refuses the output itself, naming it
+/// (the record itself, a directory, a file it cannot open): only another command
+/// writing it now is refused here.
+fn lock_output(a: &ExportArgs) -> Result<Option<OutputLock>, LockError> {
+    if aisle_tools::paths::same_file(&a.record, &a.output) || a.output.is_dir() {
+        return Ok(None);
+    }
+    match OutputLock::acquire("the bag", &a.output) {
+        Ok(l) => Ok(Some(l)),
+        Err(LockError::Open { .. }) => Ok(None),
+        Err(e) => Err(e),
     }
 }

@@ -44,10 +44,16 @@ pub fn profile(a: &ProfileArgs) -> ExitCode {
     if let Err(e) = crate::file_roles::distinct(&inputs, &outputs) {
         return crate::exit::fail(e);
     }
-    // Before the record is read (a long one takes a while): an output it cannot write.
+    // Before the record is read (a long one takes a while): an output it cannot write,
+    // or one another command writes now (the locks are held until this one ends).
+    let mut _locks = Vec::with_capacity(outputs.len());
     for (flag, p) in &outputs {
         if let Err(e) = crate::file_roles::writable_output(flag, p) {
             return crate::exit::fail(e);
+        }
+        match aisle_tools::output_lock::OutputLock::acquire(flag, p) {
+            Ok(l) => _locks.push(l),
+            Err(e) => return crate::exit::fail(e),
         }
     }
     let budgets = match &a.budgets {
@@ -64,9 +70,6 @@ pub fn profile(a: &ProfileArgs) -> ExitCode {
     print!("{}", report.table());
     if a.histograms {
         print!("{}", report.histograms());
-    }
-    if let Some(t) = &report.truncated {
-        println!("the file is damaged: profiled what could be read; {t}");
     }
     let damaged = report.truncated.is_some();
     for (path, write) in [

@@ -103,10 +103,28 @@ pub fn replay(a: &ReplayRequest) -> ExitCode {
             let total: u64 = s.published.values().sum();
             println!("replayed {total} messages from {}", a.file.display());
             print_replayed(&s.published, s.truncated.as_deref(), s.stopped);
+            if total == 0 && !s.stopped {
+                // Nothing was replayed: not what was asked (exit 2), said so.
+                return fail(published_nothing(a));
+            }
             ExitCode::SUCCESS
         }
         Err(e) => fail(e),
     }
+}
+
+/// Why a timed replay published nothing: what it was asked to replay.
+fn published_nothing(a: &ReplayRequest) -> String {
+    let topics = if a.topics.is_empty() {
+        "on the replayed topics".to_string()
+    } else {
+        format!("on --topics {}", a.topics.join(" "))
+    };
+    format!(
+        "published nothing: {} holds no message {topics} from --start {} s",
+        a.file.display(),
+        a.start
+    )
 }
 
 /// A new instance in the run directory for a replay without a supervisor (what dead
@@ -367,6 +385,12 @@ fn replay_check(a: &ReplayRequest) -> ExitCode {
 }
 
 pub fn render(file: &Path, out: &Path, pixels_per_metre: f64, band_every: usize) -> ExitCode {
+    use aisle_tools::render::OutputFormat;
+    // Decided by the extension, before the record is read: a .jpg never holds PNG bytes.
+    let format = match OutputFormat::of(out) {
+        Ok(f) => f,
+        Err(e) => return fail(format!("-o {e}")),
+    };
     if !(pixels_per_metre.is_finite() && (1.0..=200.0).contains(&pixels_per_metre)) {
         return fail(format!(
             "--pixels-per-metre must be within 1..=200, got {pixels_per_metre}"
@@ -375,37 +399,44 @@ pub fn render(file: &Path, out: &Path, pixels_per_metre: f64, band_every: usize)
     if let Err(e) = crate::file_roles::distinct(&[("the record", file)], &[("-o", out)]) {
         return fail(e);
     }
+    // Held until the output is written: a second command writing this file is refused.
+    let _lock = match aisle_tools::output_lock::OutputLock::acquire("-o", out) {
+        Ok(l) => l,
+        Err(e) => return fail(e),
+    };
     let opts = aisle_tools::render::RenderOptions {
         pixels_per_metre,
         band_every,
         driven: true,
     };
-    if out
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("html"))
-    {
-        return match aisle_tools::animate::animate(file, out, &opts) {
-            Ok(a) => {
-                println!(
-                    "wrote {} ({} ticks, {} bands, {} KB)",
-                    out.display(),
-                    a.frames,
-                    a.bands,
-                    a.bytes / 1024
-                );
-                if let Some(t) = &a.truncated {
-                    // Drawn, but of a damaged record: exit 2, as for every command.
-                    eprintln!("error: damaged record: drew what could be read; {t}");
-                    return crate::exit::could_not();
-                }
-                ExitCode::SUCCESS
-            }
-            Err(e) => fail(e),
-        };
+    if format == OutputFormat::Html {
+        return animate(file, out, &opts);
     }
     match aisle_tools::render::render(file, out, &opts) {
         Ok(_) => {
             println!("wrote {}", out.display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => fail(e),
+    }
+}
+
+/// `render -o page.html`: the playback page.
+fn animate(file: &Path, out: &Path, opts: &aisle_tools::render::RenderOptions) -> ExitCode {
+    match aisle_tools::animate::animate(file, out, opts) {
+        Ok(a) => {
+            println!(
+                "wrote {} ({} ticks, {} bands, {} KB)",
+                out.display(),
+                a.frames,
+                a.bands,
+                a.bytes / 1024
+            );
+            if let Some(t) = &a.truncated {
+                // Drawn, but of a damaged record: exit 2, as for every command.
+                eprintln!("error: damaged record: drew what could be read; {t}");
+                return crate::exit::could_not();
+            }
             ExitCode::SUCCESS
         }
         Err(e) => fail(e),

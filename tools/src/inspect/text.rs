@@ -1,6 +1,8 @@
 //! A payload as text, field by field (like `ros2 topic echo`): one `name: value` line
 //! per field in declaration order, nested structs indented, arrays of numbers on one
 //! line, long arrays cut after a few elements with their length said, padding left out.
+//! An array the message uses in part (`Message::used_len`: a cloud's `rows x cols`
+//! points, a grid's cells) shows its used elements, then `(capacity N)`.
 //!
 //! Works from the layout descriptions of the catalogue (`FieldLayout`), so it knows every
 //! message type without a line per type. Knows nothing of the bus or of files.
@@ -40,49 +42,82 @@ pub fn payload_text(type_name: &str, bytes: &[u8], opts: &TextOptions) -> Option
     } else {
         bytes
     };
+    // The bytes the message says it uses (a cloud's rows x cols points, a grid's
+    // cells): an array past them shows its used elements, and its capacity as such.
+    let used = crate::catalog::used_len(type_name, bytes).unwrap_or(*size);
     let mut out = String::new();
-    write_fields(&mut out, fields, bytes, 0, opts);
+    write_fields(&mut out, fields, &bytes[..*size], 0, opts, used);
     Some(out)
 }
 
+/// The fields of `b` at `indent`; an array reaching past `used` bytes is cut there.
 fn write_fields(
     out: &mut String,
     fields: &[FieldLayout],
     b: &[u8],
     indent: usize,
     o: &TextOptions,
+    used: usize,
 ) {
     for f in fields {
         if f.name.starts_with('_') {
             continue; // padding
         }
-        write_field(
-            out,
-            f.name,
-            f.ty.trim(),
-            &b[f.offset..f.offset + f.size],
-            indent,
-            o,
-        );
+        let ty = f.ty.trim();
+        let end = f.offset + f.size;
+        let field = Field {
+            name: f.name,
+            ty,
+            capacity: (end > used)
+                .then(|| array_parts(ty).and_then(|(e, _)| type_size(e)))
+                .flatten()
+                .filter(|&es| es > 0)
+                .map(|es| f.size / es),
+        };
+        let end = if field.capacity.is_some() {
+            used.max(f.offset)
+        } else {
+            end
+        };
+        write_field(out, &field, &b[f.offset..end], indent, o);
     }
 }
 
-fn write_field(out: &mut String, name: &str, ty: &str, b: &[u8], indent: usize, o: &TextOptions) {
+/// One field: its name, type and, for an array the message uses only in part, its
+/// capacity in elements.
+struct Field<'a> {
+    name: &'a str,
+    ty: &'a str,
+    capacity: Option<usize>,
+}
+
+fn write_field(out: &mut String, f: &Field, b: &[u8], indent: usize, o: &TextOptions) {
+    let (name, ty) = (f.name, f.ty);
     let pad = "  ".repeat(indent);
+    let cap = |n: usize| match f.capacity {
+        Some(c) if c != n => format!(" (capacity {c})"),
+        _ => String::new(),
+    };
     if let Some(elem) = array_parts(ty).map(|(e, _)| e) {
         if elem == "u8" && (name == "name" || name == "text") {
             let _ = writeln!(out, "{pad}{name}: {:?}", read_name(b));
             return;
         }
-        if let Some(line) = inline(ty, b, o) {
-            let _ = writeln!(out, "{pad}{name}: {line}");
-            return;
-        }
         let es = type_size(elem).filter(|&s| s > 0).unwrap_or(b.len().max(1));
         let n = b.len() / es;
+        if let Some(line) = inline(ty, b, o) {
+            let _ = writeln!(out, "{pad}{name}: {line}{}", cap(n));
+            return;
+        }
         let shown = n.min(o.structs);
         if shown < n {
-            let _ = writeln!(out, "{pad}{name}: # {n} elements, the first {shown}");
+            let _ = writeln!(
+                out,
+                "{pad}{name}: # {n} elements, the first {shown}{}",
+                cap(n)
+            );
+        } else if f.capacity.is_some() {
+            let _ = writeln!(out, "{pad}{name}: # {n} elements{}", cap(n));
         } else {
             let _ = writeln!(out, "{pad}{name}:");
         }
@@ -108,7 +143,7 @@ fn write_field(out: &mut String, name: &str, ty: &str, b: &[u8], indent: usize, 
 /// A struct's fields at `indent` (an element of an array of structs).
 fn write_value(out: &mut String, ty: &str, b: &[u8], indent: usize, o: &TextOptions) {
     match nested(ty) {
-        Some(fields) => write_fields(out, fields, b, indent, o),
+        Some(fields) => write_fields(out, fields, b, indent, o, b.len()),
         None => {
             let _ = writeln!(out, "{}{:02x?}", "  ".repeat(indent), b);
         }
@@ -149,7 +184,9 @@ fn inline(ty: &str, b: &[u8], o: &TextOptions) -> Option<String> {
 mod tests {
     use super::*;
     use crate::aligned::{message_bytes, zeroed_box};
-    use aisle_messages::{Heartbeat, OccupancyGrid, RobotState, Trajectory, write_name};
+    use aisle_messages::{
+        Heartbeat, OccupancyGrid, PointCloud, RobotState, Trajectory, write_name,
+    };
 
     #[test]
     fn header_first_then_fields_nested_and_inline() {
@@ -176,6 +213,7 @@ mod tests {
     #[test]
     fn long_arrays_are_cut_with_their_length_and_names_read_as_text() {
         let mut g = zeroed_box::<OccupancyGrid>();
+        (g.width, g.height) = (40, 25);
         g.cells[1] = 100;
         let t = payload_text(
             OccupancyGrid::TYPE_NAME,
@@ -183,10 +221,10 @@ mod tests {
             &TextOptions::default(),
         )
         .unwrap();
-        let n = aisle_messages::MAX_GRID_CELLS;
+        let c = aisle_messages::MAX_GRID_CELLS;
         assert!(
             t.contains(&format!(
-                "cells: [0, 100, 0, 0, 0, 0, 0, 0, ... ({n} values)]"
+                "cells: [0, 100, 0, 0, 0, 0, 0, 0, ... (1000 values)] (capacity {c})"
             )),
             "{t}"
         );
@@ -218,6 +256,42 @@ mod tests {
             payload_text("aisle.Nope.v1", &[], &TextOptions::default()),
             None
         );
+    }
+
+    #[test]
+    fn a_cloud_shows_the_points_its_rows_and_cols_use_and_its_capacity_as_such() {
+        let mut c = zeroed_box::<PointCloud>();
+        (c.rows, c.cols) = (2, 3);
+        c.points[0] = [1.5, 0.0, 0.25];
+        c.points[9] = [9.0, 9.0, 9.0]; // past the used points: not shown
+        let t = payload_text(
+            PointCloud::TYPE_NAME,
+            message_bytes(&*c),
+            &TextOptions::default(),
+        )
+        .unwrap();
+        let cap = aisle_messages::MAX_CLOUD_POINTS;
+        let line = t.lines().find(|l| l.starts_with("points:")).unwrap();
+        assert_eq!(
+            line,
+            format!(
+                "points: [[1.5, 0.0, 0.25], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], \
+[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]] (capacity {cap})"
+            ),
+            "{t}"
+        );
+        (c.rows, c.cols) = (31, 1201);
+        let t = payload_text(
+            PointCloud::TYPE_NAME,
+            message_bytes(&*c),
+            &TextOptions::default(),
+        )
+        .unwrap();
+        assert!(
+            t.contains(&format!("... (37231 values)] (capacity {cap})\n")),
+            "{t}"
+        );
+        assert!(!t.contains(&format!("({cap} values)")), "{t}");
     }
 
     #[test]

@@ -201,6 +201,14 @@ pub fn profile_file(
             }
         }
     }
+    // A file cut at a record boundary reads to its end without an error, but it has no
+    // summary: it was not finished, so it is as damaged as one cut mid-record.
+    if truncated.is_none() && !file.is_finalised() {
+        truncated = Some(format!(
+            "{} has no summary: the recording was not finished (the file is truncated)",
+            file.path().display()
+        ));
+    }
     let Collected {
         mut book,
         last_acted,
@@ -245,8 +253,9 @@ impl ProfileReport {
                 BudgetSource::None => "none attached to the record: nothing is scored",
             }
         );
+        // The one place the damage is said (the CLI prints this table).
         if let Some(tr) = &self.truncated {
-            let _ = writeln!(t, "note: {tr}");
+            let _ = writeln!(t, "note: profiled what could be read: {tr}");
         }
         if !self.foreign.is_empty() {
             let _ = writeln!(

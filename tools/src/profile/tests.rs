@@ -125,3 +125,40 @@ fn a_file_without_latency_data_is_an_error() {
     let e = profile_file(&file, &ProfileOptions::default()).unwrap_err();
     assert!(e.to_string().contains("empty.mcap"), "{e}");
 }
+
+#[test]
+fn a_damaged_or_unfinished_record_is_noted_once() {
+    let bytes = write_synthetic(Cursor::new(Vec::new()), 50, WriterOptions::default())
+        .unwrap()
+        .into_inner();
+    // Cut in its summary: every message reads, but the recording was not finished.
+    let r = profile_file(
+        &file_of(bytes[..bytes.len() - 100].to_vec()),
+        &ProfileOptions::default(),
+    )
+    .unwrap();
+    let t = r.table();
+    assert!(
+        r.truncated
+            .as_deref()
+            .is_some_and(|t| t.contains("no summary"))
+    );
+    assert_eq!(t.matches("no summary").count(), 1, "{t}");
+    assert_eq!(t.matches("note:").count(), 1, "{t}");
+    // Cut in its data: one note.
+    let r = profile_file(
+        &file_of(bytes[..bytes.len() * 2 / 3].to_vec()),
+        &ProfileOptions::default(),
+    )
+    .unwrap();
+    let t = r.table();
+    assert!(r.truncated.is_some());
+    assert_eq!(t.matches("note:").count(), 1, "{t}");
+    // A finished record: none.
+    let r = profile_file(&file_of(bytes), &ProfileOptions::default()).unwrap();
+    assert!(
+        r.truncated.is_none() && !r.table().contains("note:"),
+        "{}",
+        r.table()
+    );
+}

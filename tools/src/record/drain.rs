@@ -170,7 +170,7 @@ fn drain_sources(
     }
     if writer_gone {
         // The writer stopped on an error; it is reported when the thread is joined.
-        return Err(NodeError::Protocol("recorder: the writer stopped".into()));
+        return Err(NodeError::Protocol("the writer stopped".into()));
     }
     Ok(received)
 }

@@ -14,6 +14,7 @@
 //! from sequence numbers), [`answer`] (when to acknowledge a lockstep tick),
 //! [`run_info`] (metadata and attachments), [`log_clock`] (which clock `log_time` is
 //! on: sim time in lockstep, Unix time in realtime). This module joins and finalises.
+//! Its errors do not name the recorder: whoever runs it does (`error: recorder: ...`).
 
 mod answer;
 mod drain;
@@ -140,7 +141,7 @@ fn record(
 ) -> Result<RecordSummary, NodeError> {
     // Joining: the graph's answer rule, the bus, one subscriber per topic.
     let parent = std::os::unix::process::parent_id();
-    let graph = Graph::load_dir(&args.config_dir).map_err(|e| NodeError::setup("recorder", e))?;
+    let graph = Graph::load_dir(&args.config_dir).map_err(|e| NodeError::setup("the graph", e))?;
     let answer = AnswerRule::of(&graph);
     let (bus, info) = Bus::join(&args.instance, NodeKind::Recorder, NodeArgs::JOIN_TIMEOUT)?;
     let sources = subscribe_all(&bus)?;
@@ -160,7 +161,7 @@ fn record(
         &graph,
         aisle_node::realtime::Forks::Inherit,
     )
-    .map_err(|e| NodeError::setup("recorder", e))?;
+    .map_err(|e| NodeError::setup("real-time options", e))?;
     let models = crate::viewer::ViewerModels {
         robot: robot_model(&args.config_dir),
         scene: scene(&args.config_dir),

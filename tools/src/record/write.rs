@@ -91,15 +91,15 @@ impl WriterThread {
         let thread = std::thread::Builder::new()
             .name("recorder-writer".into())
             .spawn(move || write.run())
-            .map_err(|e| NodeError::setup("recorder: writer thread", e))?;
+            .map_err(|e| NodeError::setup("the writer thread", e))?;
         // The live view starts in the writer thread (so the server's threads inherit its
         // idle priority); a bad address is a setup error before the node is ready.
         match ready.recv() {
             Ok(Ok(())) => {}
-            Ok(Err(e)) => return Err(NodeError::setup("recorder", e)),
+            Ok(Err(e)) => return Err(NodeError::setup("the live view", e)),
             Err(_) => {
                 return Err(NodeError::Protocol(
-                    "recorder: the writer thread ended at its start".into(),
+                    "the writer thread ended at its start".into(),
                 ));
             }
         }
@@ -117,17 +117,17 @@ impl WriterThread {
         drop(jobs);
         thread
             .join()
-            .map_err(|_| NodeError::Protocol("recorder: the writer thread panicked".into()))?
+            .map_err(|_| NodeError::Protocol("the writer thread panicked".into()))?
             .map_err(|e| NodeError::Protocol(format!("writing {}: {e}", out.display())))
     }
 }
 
 /// Creates the record file and its writer.
 fn create(out: &Path, options: &RecorderOptions) -> Result<RecordWriter<Output>, NodeError> {
-    let file = File::create(out)
-        .map_err(|e| NodeError::setup(format!("recorder: output {}", out.display()), e))?;
+    let file =
+        File::create(out).map_err(|e| NodeError::setup(format!("output {}", out.display()), e))?;
     RecordWriter::new(BufWriter::with_capacity(1 << 20, file), options.writer)
-        .map_err(|e| NodeError::setup(format!("recorder: output {}", out.display()), e))
+        .map_err(|e| NodeError::setup(format!("output {}", out.display()), e))
 }
 
 type Output = BufWriter<File>;
@@ -284,4 +284,21 @@ fn emit<W: std::io::Write + std::io::Seek>(
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_output_error_names_the_file_and_leaves_the_recorder_to_its_caller() {
+        let out = Path::new("/nonexistent/dir/x.mcap");
+        let Err(e) = create(out, &RecorderOptions::default()) else {
+            panic!("created a file under /nonexistent");
+        };
+        // The node's caller prints `error: recorder: <e>`: the source named once.
+        let line = format!("error: recorder: {e}");
+        assert_eq!(line.matches("recorder").count(), 1, "{line}");
+        assert!(line.contains("output /nonexistent/dir/x.mcap"), "{line}");
+    }
 }

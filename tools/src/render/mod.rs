@@ -58,6 +58,39 @@ pub enum RenderError {
         path: String,
         source: std::io::Error,
     },
+    #[error("{path}: cannot write {what}; the output must end in {SUPPORTED}")]
+    UnsupportedOutput { path: String, what: String },
+}
+
+/// The output extensions `render` writes, for messages.
+pub const SUPPORTED: &str = ".png (picture), .svg (picture in vectors) or .html (playback page)";
+
+/// What a render writes, decided by the output's extension (case-insensitive); any other
+/// extension is refused, so a `run.jpg` never holds PNG bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OutputFormat {
+    Png,
+    Svg,
+    Html,
+}
+
+impl OutputFormat {
+    /// The format `out` names, or [`RenderError::UnsupportedOutput`] naming its extension.
+    pub fn of(out: &Path) -> Result<OutputFormat, RenderError> {
+        let ext = out.extension().map(|e| e.to_string_lossy().to_string());
+        match ext.as_deref().map(str::to_ascii_lowercase).as_deref() {
+            Some("png") => Ok(OutputFormat::Png),
+            Some("svg") => Ok(OutputFormat::Svg),
+            Some("html") => Ok(OutputFormat::Html),
+            _ => Err(RenderError::UnsupportedOutput {
+                path: out.display().to_string(),
+                what: match ext {
+                    Some(e) => format!("a .{e} file"),
+                    None => "a file without an extension".to_string(),
+                },
+            }),
+        }
+    }
 }
 
 /// What was drawn.
@@ -268,13 +301,19 @@ pub fn render_svg(
     Ok((svg, prepared.summary()))
 }
 
-/// Renders a recorded file to a PNG, or to an SVG when `out` ends in `.svg`.
+/// Renders a recorded file to a PNG (`out` ends in `.png`) or an SVG (`.svg`); any
+/// other extension is refused before the record is read (`.html` is
+/// [`crate::animate::animate`]'s).
 pub fn render(path: &Path, out: &Path, opts: &RenderOptions) -> Result<RenderSummary, RenderError> {
+    let format = OutputFormat::of(out)?;
+    if format == OutputFormat::Html {
+        return Err(RenderError::UnsupportedOutput {
+            path: out.display().to_string(),
+            what: "a page (.html) here: that is `animate`'s".to_string(),
+        });
+    }
     let file = RecordFile::open(path)?;
-    if out
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("svg"))
-    {
+    if format == OutputFormat::Svg {
         let (svg, summary) = render_svg(&file, opts)?;
         write_output(out, svg.as_bytes())?;
         return Ok(summary);

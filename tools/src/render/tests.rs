@@ -280,3 +280,29 @@ fn the_svg_is_the_same_picture_in_vectors() {
         assert!(svg.contains(text), "{text}");
     }
 }
+
+#[test]
+fn an_output_other_than_png_svg_or_html_is_refused_before_the_record_is_read() {
+    use std::path::Path;
+    for ok in ["a.png", "b.SVG", "c.Html"] {
+        assert!(OutputFormat::of(Path::new(ok)).is_ok(), "{ok}");
+    }
+    // The record does not exist: the extension is refused first, naming it.
+    let e = render(
+        Path::new("/nonexistent/run.mcap"),
+        Path::new("/tmp/x.jpg"),
+        &RenderOptions::default(),
+    )
+    .unwrap_err();
+    let text = e.to_string();
+    assert!(matches!(e, RenderError::UnsupportedOutput { .. }), "{text}");
+    assert!(text.contains("x.jpg") && text.contains(".jpg"), "{text}");
+    assert!(text.contains(".png") && text.contains(".html"), "{text}");
+    let e = OutputFormat::of(Path::new("noext"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("without an extension") && e.contains(".png"),
+        "{e}"
+    );
+}
