@@ -501,6 +501,23 @@ fn a_timed_replay_that_publishes_nothing_says_so_and_exits_2() {
 }
 
 #[test]
+fn a_timed_replay_of_a_damaged_record_publishes_what_it_can_and_exits_2() {
+    let dir = TestDir::new("replay-damaged");
+    let rec = dir.path("run.mcap");
+    let out = support::run(&dir.run_dir(), &["run", "--quiet", "--record", s(&rec)]);
+    assert!(out.status.success());
+    // Cut in the middle of its messages.
+    let bytes = std::fs::read(&rec).unwrap();
+    std::fs::write(&rec, &bytes[..bytes.len() / 2]).unwrap();
+    let (code, err) = run_refused(&dir, &["replay", s(&rec), "--fast"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("run.mcap is damaged") && err.contains("the file is cut short"),
+        "{err}"
+    );
+}
+
+#[test]
 fn render_profile_and_export_refuse_an_output_another_command_writes_now() {
     let dir = TestDir::new("locked-outputs");
     let rec = dir.path("run.mcap");

@@ -227,3 +227,56 @@ fn a_second_command_writing_the_same_output_is_refused_before_launch() {
     assert!(out.status.success(), "{}", text(&out));
     assert!(run_dir_leftovers(&run_dir).is_empty());
 }
+
+/// A timed replay into a live instance stops when the instance's owner ends it (here a
+/// looping replay that made its own instance), says why and exits 2, instead of
+/// publishing into an instance being removed.
+#[test]
+fn a_timed_replay_stops_when_its_live_instance_ends() {
+    let dir = TestDir::new("replay-ends");
+    let run_dir = dir.run_dir();
+    let record = dir.path("run.mcap");
+    let rec = record.to_str().unwrap();
+    let out = run(&run_dir, &["run", "--quiet", "--record", rec]);
+    assert!(out.status.success(), "{}", text(&out));
+
+    // The owner: a replay of the robot state into an instance of its own, looping.
+    let mut owner = spawn(
+        &run_dir,
+        &["replay", rec, "--topics", "aisle/robot_state", "--loop"],
+    );
+    let (prefix, root) = wait_for_instance(&run_dir);
+    // Into it, at recorded speed (the record lasts tens of seconds): the local map,
+    // which nothing there publishes.
+    let mut guest = spawn(
+        &run_dir,
+        &[
+            "replay",
+            rec,
+            "--topics",
+            "aisle/map/local",
+            "--prefix",
+            &prefix,
+            "--root",
+            &root,
+        ],
+    );
+    std::thread::sleep(Duration::from_secs(2));
+    assert!(
+        guest.try_wait().unwrap().is_none(),
+        "the guest replay ended early"
+    );
+    // SAFETY: a signal to our own child; it stops and removes its instance.
+    unsafe { libc::kill(owner.id() as i32, libc::SIGINT) };
+    let (code, t) = exits_within(&mut owner, Duration::from_secs(30), "the owner");
+    assert_eq!(code, 0, "{t}");
+    let (code, t) = exits_within(&mut guest, Duration::from_secs(10), "the guest");
+    assert_eq!(code, 2, "{t}");
+    assert!(
+        t.contains(&format!("instance {prefix}")) && t.contains("the replay stopped after"),
+        "{t}"
+    );
+    // (A replay's own instance is removed at once, not after its observers left as
+    // `aisle run` does, so iceoryx2 may warn here as the guest closes its ports.)
+    assert!(run_dir_leftovers(&run_dir).is_empty());
+}

@@ -17,7 +17,7 @@
 use crate::catalog::{ServiceInfo, service_info, services};
 use crate::raw_ports::{RawSink, open_sink};
 use crate::reader::{ChannelInfo, ReadError, RecordFile};
-use aisle_bus::{Bus, BusError, Instance, clock, signals};
+use aisle_bus::{Bus, BusError, Instance, OwnerWatch, clock, signals};
 use aisle_messages::topics::names as s;
 use aisle_messages::{NodeKind, topics};
 use std::collections::BTreeMap;
@@ -87,6 +87,8 @@ pub struct ReplaySummary {
     pub foreign_schema_hash: Option<String>,
     /// Passes over the file begun (more than one with `looping`).
     pub passes: u64,
+    /// A live instance's owner ended it under the replay: why (the replay stopped there).
+    pub ended: Option<String>,
 }
 
 impl ReplaySummary {
@@ -295,6 +297,12 @@ pub(crate) fn publish_file(
         catalog,
         announcement,
         refreshed_ns: 0,
+        // Into a live group: stop when its owner ends it, as `echo` does, instead of
+        // publishing into an instance being removed.
+        watch: announcement
+            .is_none()
+            .then(|| OwnerWatch::new(bus.instance())),
+        ended: None,
     };
     let mut summary = ReplaySummary {
         foreign_schema_hash: foreign,
@@ -303,15 +311,21 @@ pub(crate) fn publish_file(
     let settled = pass.sleep_until(clock::monotonic_ns() + opts.settle.as_nanos() as u64)?;
     if !settled || !pass.wait_for_subscribers(bus, selected, opts.wait_subscribers)? {
         summary.stopped = true;
-        return Ok(summary);
-    }
-    loop {
-        summary.passes += 1;
-        pass.play(file, opts, &mut summary)?;
-        if !opts.looping || summary.stopped || summary.truncated.is_some() {
-            return Ok(summary);
+    } else {
+        loop {
+            summary.passes += 1;
+            pass.play(file, opts, &mut summary)?;
+            if !opts.looping || summary.stopped || summary.truncated.is_some() {
+                break;
+            }
         }
     }
+    // Stopped by the instance's end, not by a signal.
+    if let Some(why) = pass.ended.take() {
+        summary.ended = Some(why);
+        summary.stopped = false;
+    }
+    Ok(summary)
 }
 
 /// The publishers of one replay, and when they last handed history to new subscribers.
@@ -320,6 +334,9 @@ struct Pass<'a> {
     catalog: Vec<ServiceInfo>,
     announcement: Option<&'a dyn RawSink>,
     refreshed_ns: u64,
+    watch: Option<OwnerWatch>,
+    /// Why the watched instance ended, once it has.
+    ended: Option<String>,
 }
 
 impl Pass<'_> {
@@ -355,6 +372,16 @@ impl Pass<'_> {
         Ok(())
     }
 
+    /// Whether the watched live instance has ended (its reason kept in `ended`).
+    fn instance_ended(&mut self) -> bool {
+        if self.ended.is_none()
+            && let Some(why) = self.watch.as_mut().and_then(|w| w.ended())
+        {
+            self.ended = Some(why.to_string());
+        }
+        self.ended.is_some()
+    }
+
     /// One pass over the file.
     fn play(
         &mut self,
@@ -374,7 +401,7 @@ impl Pass<'_> {
                     break;
                 }
             };
-            if signals::stop_requested() {
+            if signals::stop_requested() || self.instance_ended() {
                 summary.stopped = true;
                 break;
             }
@@ -451,7 +478,7 @@ impl Pass<'_> {
     /// meanwhile; false when a stop was requested.
     fn sleep_until(&mut self, due: u64) -> Result<bool, BusError> {
         loop {
-            if signals::stop_requested() {
+            if signals::stop_requested() || self.instance_ended() {
                 return Ok(false);
             }
             self.refresh()?;

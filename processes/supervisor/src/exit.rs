@@ -28,8 +28,8 @@ Exit codes (every subcommand):
      mission, record), output path not writable or naming an input or another
      output or being written by another command now, a replay into a live group
      of a topic the group publishes itself (refused before anything is published),
-     a replay that published nothing, setup failure, damaged record, the group could
-     not run or was interrupted";
+     a replay that published nothing or whose live instance ended under it, setup
+     failure, damaged record, the group could not run or was interrupted";
 
 pub fn negative() -> ExitCode {
     ExitCode::from(NEGATIVE)

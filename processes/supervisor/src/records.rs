@@ -103,6 +103,13 @@ pub fn replay(a: &ReplayRequest) -> ExitCode {
             let total: u64 = s.published.values().sum();
             println!("replayed {total} messages from {}", a.file.display());
             print_replayed(&s.published, s.truncated.as_deref(), s.stopped);
+            if let Some(why) = &s.ended {
+                return fail(format!("{why}: the replay stopped after {total} messages"));
+            }
+            if let Some(t) = &s.truncated {
+                // Replayed what could be read, but not the file it was asked to.
+                return fail(t);
+            }
             if total == 0 && !s.stopped {
                 // Nothing was replayed: not what was asked (exit 2), said so.
                 return fail(published_nothing(a));
