@@ -475,10 +475,7 @@ fn render_to_an_extension_it_cannot_write_is_refused_before_reading_the_record()
 #[test]
 fn a_timed_replay_that_publishes_nothing_says_so_and_exits_2() {
     let dir = TestDir::new("replay-nothing");
-    let rec = dir.path("run.mcap");
-    let file = std::fs::File::create(&rec).unwrap();
-    aisle_tools::synthetic::write_synthetic(file, 20, aisle_tools::WriterOptions::default())
-        .unwrap();
+    let rec = synthetic_record(&dir);
     // Every message is before --start: nothing is replayed.
     let (code, err) = run_refused(
         &dir,
@@ -520,10 +517,7 @@ fn a_timed_replay_of_a_damaged_record_publishes_what_it_can_and_exits_2() {
 #[test]
 fn render_profile_and_export_refuse_an_output_another_command_writes_now() {
     let dir = TestDir::new("locked-outputs");
-    let rec = dir.path("run.mcap");
-    let file = std::fs::File::create(&rec).unwrap();
-    aisle_tools::synthetic::write_synthetic(file, 20, aisle_tools::WriterOptions::default())
-        .unwrap();
+    let rec = synthetic_record(&dir);
     let (png, json, svg, bag) = (
         dir.path("x.png"),
         dir.path("x.json"),
@@ -557,4 +551,13 @@ fn render_profile_and_export_refuse_an_output_another_command_writes_now() {
         );
         drop(held);
     }
+}
+
+/// A small whole record (20 synthetic ticks) in `dir`, for the tools' refusals.
+fn synthetic_record(dir: &TestDir) -> std::path::PathBuf {
+    let rec = dir.path("run.mcap");
+    let file = std::fs::File::create(&rec).unwrap();
+    aisle_tools::synthetic::write_synthetic(file, 20, aisle_tools::WriterOptions::default())
+        .unwrap();
+    rec
 }

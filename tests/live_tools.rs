@@ -162,19 +162,10 @@ fn a_second_command_writing_the_same_output_is_refused_before_launch() {
     let record = dir.path("same.mcap");
     let report = dir.path("same.json");
     let (rec, rep) = (record.to_str().unwrap(), report.to_str().unwrap());
+    let outputs = ["--mission", &mission, "--record", rec, "--report", rep];
     let mut first = spawn(
         &run_dir,
-        &[
-            "run",
-            "--realtime",
-            "--quiet",
-            "--mission",
-            &mission,
-            "--record",
-            rec,
-            "--report",
-            rep,
-        ],
+        &[&["run", "--realtime", "--quiet"], &outputs[..]].concat(),
     );
     let first_pid = first.id();
     // Its outputs are locked before its instance exists.
@@ -211,19 +202,7 @@ fn a_second_command_writing_the_same_output_is_refused_before_launch() {
     assert_eq!(out.status.code(), Some(0), "the record is whole: {t}");
     assert!(!t.contains("damaged"), "{t}");
     // Once the first run ended, its files may be written over, as before.
-    let out = run(
-        &run_dir,
-        &[
-            "run",
-            "--quiet",
-            "--mission",
-            &mission,
-            "--record",
-            rec,
-            "--report",
-            rep,
-        ],
-    );
+    let out = run(&run_dir, &[&["run", "--quiet"], &outputs[..]].concat());
     assert!(out.status.success(), "{}", text(&out));
     assert!(run_dir_leftovers(&run_dir).is_empty());
 }

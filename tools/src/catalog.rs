@@ -4,12 +4,8 @@
 //! Knows what travels where; it does not know how messages are stored in a file or
 //! published on the bus.
 
+use aisle_messages::NodeKind;
 use aisle_messages::topics::{self, TopicInfo};
-use aisle_messages::{
-    ControllerBand, ControllerGoal, GroupMembers, Heartbeat, InstanceInfo, MapperControl,
-    MissionStatus, NodeKind, OccupancyGrid, PlanRequest, PlanResponse, PointCloud, RobotState,
-    SimCommand, SimState, Tick, TickDone, Trajectory, WorldTruth,
-};
 use aisle_node::Graph;
 use std::sync::LazyLock;
 
@@ -64,41 +60,20 @@ pub fn producer(service: &str) -> Option<NodeKind> {
 /// grid's cells in use, not the capacity); `None` when `type_name` is not a message of
 /// the catalogue. A short payload reads as zeros past its end.
 pub fn used_len(type_name: &str, bytes: &[u8]) -> Option<usize> {
-    macro_rules! each {
-        ($($t:ty),* $(,)?) => {
-            $(if type_name == <$t>::TYPE_NAME {
-                return Some(used_of::<$t>(bytes));
-            })*
-        };
-    }
-    each!(
-        InstanceInfo,
-        GroupMembers,
-        Tick,
-        TickDone,
-        Heartbeat,
-        RobotState,
-        WorldTruth,
-        SimCommand,
-        SimState,
-        PointCloud,
-        OccupancyGrid,
-        MapperControl,
-        PlanRequest,
-        PlanResponse,
-        ControllerGoal,
-        Trajectory,
-        ControllerBand,
-        MissionStatus,
-    );
-    None
+    aisle_messages::visit_message_type(type_name, UsedLen(bytes))
 }
 
-fn used_of<M: aisle_messages::Message>(bytes: &[u8]) -> usize {
-    let size = std::mem::size_of::<M>();
-    let mut buf = crate::aligned::AlignedBuf::new();
-    buf.set_padded(&bytes[..bytes.len().min(size)], size);
-    buf.view::<M>().map_or(size, |m| m.used_len().min(size))
+/// [`used_len`] for the message type the catalogue dispatches to.
+struct UsedLen<'a>(&'a [u8]);
+
+impl aisle_messages::MessageTypeVisitor for UsedLen<'_> {
+    type Output = usize;
+    fn visit<M: aisle_messages::Message>(self) -> usize {
+        let size = std::mem::size_of::<M>();
+        let mut buf = crate::aligned::AlignedBuf::new();
+        buf.set_padded(&self.0[..self.0.len().min(size)], size);
+        buf.view::<M>().map_or(size, |m| m.used_len().min(size))
+    }
 }
 
 fn fnv1a(hash: &mut u64, bytes: &[u8]) {
@@ -113,7 +88,8 @@ fn fnv1a(hash: &mut u64, bytes: &[u8]) {
 /// change in `Header` changes every type's hash, a change in `Trajectory` only its own.
 pub fn layout_hash(type_name: &str) -> u64 {
     let layouts = aisle_messages::all_layouts();
-    let is_message = |name: &str| MESSAGE_TYPES.contains(&name);
+    let messages = aisle_messages::message_type_names();
+    let is_message = |name: &str| messages.contains(&name);
     let mut h = 0xcbf2_9ce4_8422_2325_u64;
     for (name, size, align, fields) in &layouts {
         if *name != type_name && is_message(name) {
@@ -131,27 +107,6 @@ pub fn layout_hash(type_name: &str) -> u64 {
     }
     h
 }
-
-const MESSAGE_TYPES: [&str; 18] = [
-    InstanceInfo::TYPE_NAME,
-    GroupMembers::TYPE_NAME,
-    Tick::TYPE_NAME,
-    TickDone::TYPE_NAME,
-    Heartbeat::TYPE_NAME,
-    RobotState::TYPE_NAME,
-    WorldTruth::TYPE_NAME,
-    SimCommand::TYPE_NAME,
-    SimState::TYPE_NAME,
-    PointCloud::TYPE_NAME,
-    OccupancyGrid::TYPE_NAME,
-    MapperControl::TYPE_NAME,
-    PlanRequest::TYPE_NAME,
-    PlanResponse::TYPE_NAME,
-    ControllerGoal::TYPE_NAME,
-    Trajectory::TYPE_NAME,
-    ControllerBand::TYPE_NAME,
-    MissionStatus::TYPE_NAME,
-];
 
 #[cfg(test)]
 mod tests {
@@ -186,13 +141,8 @@ mod tests {
     #[test]
     fn every_catalogue_message_is_a_service_type() {
         let listed: Vec<&str> = services().iter().map(|i| i.type_name).collect();
-        for name in MESSAGE_TYPES {
+        for name in aisle_messages::message_type_names() {
             assert!(listed.contains(&name), "{name}");
-        }
-        // And every top-level layout (one with a header) is in MESSAGE_TYPES.
-        for (name, _, _, fields) in aisle_messages::all_layouts() {
-            let top = fields.first().is_some_and(|f| f.name == "header");
-            assert_eq!(top, MESSAGE_TYPES.contains(&name), "{name}");
         }
     }
 }

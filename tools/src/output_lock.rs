@@ -13,7 +13,7 @@
 
 use std::fs::File;
 use std::os::fd::AsRawFd;
-use std::os::unix::fs::MetadataExt;
+use std::os::unix::fs::{MetadataExt, OpenOptionsExt};
 use std::path::{Path, PathBuf};
 
 #[derive(Debug, thiserror::Error)]
@@ -28,7 +28,7 @@ pub enum LockError {
         path: PathBuf,
         holder: Option<u32>,
     },
-    #[error("{flag} {}: cannot open it to lock it: {source}", .path.display())]
+    #[error("{flag} {}: cannot write it: {source}", .path.display())]
     Open {
         flag: String,
         path: PathBuf,
@@ -46,9 +46,10 @@ pub struct OutputLock {
 }
 
 impl OutputLock {
-    /// Opens (creating if need be, never truncating) and locks `path`, the output of
-    /// `flag`; [`LockError::Busy`] naming the holder's pid when another open file holds
-    /// it.
+    /// Opens for writing (creating if need be, never truncating) and locks `path`, the
+    /// output of `flag`: [`LockError::Open`] when it cannot be written (the same open
+    /// the write does, so it is also the check that it can be), [`LockError::Busy`]
+    /// naming the holder's pid when another open file holds it.
     pub fn acquire(flag: &str, path: &Path) -> Result<OutputLock, LockError> {
         let open_error = |source| LockError::Open {
             flag: flag.to_string(),
@@ -56,10 +57,12 @@ impl OutputLock {
             source,
         };
         let existed = path.exists();
+        // Non-blocking: a FIFO with no reader fails at once instead of hanging here.
         let file = std::fs::OpenOptions::new()
             .write(true)
             .create(true)
             .truncate(false)
+            .custom_flags(libc::O_NONBLOCK)
             .open(path)
             .map_err(open_error)?;
         // SAFETY: flock(2) on a descriptor this function owns; no memory is involved.

@@ -47,10 +47,32 @@ pub fn all_layouts() -> Vec<(&'static str, usize, usize, &'static [FieldLayout])
     layouts()
 }
 
-/// Lists every message type once: `layouts()` (what the schema hash covers) and
-/// `rust_names()` (what generated bindings call them) follow the same order.
+/// Something done with one message type chosen at run time by its type name (a
+/// tool reading raw payloads): `visit` runs with that type as `M`.
+pub trait MessageTypeVisitor {
+    type Output;
+    fn visit<M: Message>(self) -> Self::Output;
+}
+
+/// Runs `visitor` with the message type whose versioned name is `type_name`; `None`
+/// when no message of the catalogue has that name (nested layouts such as `Header` are
+/// not messages).
+pub fn visit_message_type<V: MessageTypeVisitor>(type_name: &str, visitor: V) -> Option<V::Output> {
+    visit_message(type_name, visitor)
+}
+
+/// The versioned names of the message types (not the nested layouts), in catalogue
+/// order.
+pub fn message_type_names() -> Vec<&'static str> {
+    message_names()
+}
+
+/// Lists every layout once, each marked `message` (a type sent on its own, with a
+/// header) or `nested` (a part of messages): `layouts()` (what the schema hash
+/// covers), `rust_names()` (what generated bindings call them), and the message
+/// dispatch all follow this one list.
 macro_rules! catalogue {
-    ($($t:ident),* $(,)?) => {
+    ($($kind:ident $t:ident),* $(,)?) => {
         fn layouts() -> Vec<(&'static str, usize, usize, &'static [FieldLayout])> {
             vec![$((<$t>::TYPE_NAME, core::mem::size_of::<$t>(), core::mem::align_of::<$t>(), <$t>::FIELDS)),*]
         }
@@ -58,37 +80,58 @@ macro_rules! catalogue {
         pub(crate) fn rust_names() -> Vec<(&'static str, &'static str)> {
             vec![$((stringify!($t), <$t>::TYPE_NAME)),*]
         }
+        fn visit_message<V: MessageTypeVisitor>(type_name: &str, visitor: V) -> Option<V::Output> {
+            $(if_message!($kind {
+                if type_name == <$t>::TYPE_NAME {
+                    return Some(visitor.visit::<$t>());
+                }
+            });)*
+            None
+        }
+        fn message_names() -> Vec<&'static str> {
+            let mut names = Vec::new();
+            $(if_message!($kind { names.push(<$t>::TYPE_NAME); });)*
+            names
+        }
     };
 }
 
+/// The block for a `message` entry of the catalogue, nothing for a `nested` one.
+macro_rules! if_message {
+    (message $body:block) => {
+        $body
+    };
+    (nested $body:block) => {};
+}
+
 catalogue!(
-    Header,
-    Pose2Msg,
-    Pose3Msg,
-    PathPoseMsg,
-    TimedCommandMsg,
-    TimedPoseMsg,
-    RectMsg,
-    BodyTruth,
-    Tick,
-    TickDone,
-    RobotState,
-    WorldTruth,
-    PointCloud,
-    OccupancyGrid,
-    MapperControl,
-    PlanRequest,
-    PlanResponse,
-    ControllerGoal,
-    Trajectory,
-    ControllerBand,
-    TimedTwistMsg,
-    SimState,
-    SimCommand,
-    Heartbeat,
-    MissionStatus,
-    InstanceInfo,
-    GroupMembers,
+    nested Header,
+    nested Pose2Msg,
+    nested Pose3Msg,
+    nested PathPoseMsg,
+    nested TimedCommandMsg,
+    nested TimedPoseMsg,
+    nested RectMsg,
+    nested BodyTruth,
+    message Tick,
+    message TickDone,
+    message RobotState,
+    message WorldTruth,
+    message PointCloud,
+    message OccupancyGrid,
+    message MapperControl,
+    message PlanRequest,
+    message PlanResponse,
+    message ControllerGoal,
+    message Trajectory,
+    message ControllerBand,
+    nested TimedTwistMsg,
+    message SimState,
+    message SimCommand,
+    message Heartbeat,
+    message MissionStatus,
+    message InstanceInfo,
+    message GroupMembers,
 );
 
 fn fnv1a(hash: &mut u64, bytes: &[u8]) {
@@ -140,5 +183,33 @@ pub fn zeroed_box<M: ZeroedValid>() -> Box<M> {
             std::alloc::handle_alloc_error(layout);
         }
         Box::from_raw(p)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct SizeOf;
+    impl MessageTypeVisitor for SizeOf {
+        type Output = usize;
+        fn visit<M: Message>(self) -> usize {
+            core::mem::size_of::<M>()
+        }
+    }
+
+    #[test]
+    fn the_messages_are_the_layouts_with_a_header_and_each_dispatches_to_its_type() {
+        let names = message_type_names();
+        for (name, size, _, fields) in all_layouts() {
+            let top = fields.first().is_some_and(|f| f.name == "header");
+            assert_eq!(top, names.contains(&name), "{name}");
+            assert_eq!(
+                visit_message_type(name, SizeOf),
+                top.then_some(size),
+                "{name}"
+            );
+        }
+        assert_eq!(visit_message_type("aisle/NoSuchType_v1", SizeOf), None);
     }
 }

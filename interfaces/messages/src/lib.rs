@@ -24,7 +24,8 @@ pub use catalog::*;
 pub use common::*;
 pub use grid::GridCopy;
 pub use layout::{
-    FieldLayout, Message, ZeroedValid, all_layouts, schema_hash, schema_hash_hex, zeroed_box,
+    FieldLayout, Message, MessageTypeVisitor, ZeroedValid, all_layouts, message_type_names,
+    schema_hash, schema_hash_hex, visit_message_type, zeroed_box,
 };
 pub use node_kind::{
     EXTERNAL_CODE_BIT, ExternalNode, MAX_EXTERNAL_NAME, NodeKind, check_external_name,

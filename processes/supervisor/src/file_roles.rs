@@ -6,8 +6,8 @@
 //! ([`writable_output`]), found out before the work that produces it (a mission, a
 //! record's profile), not after. Knows paths, not what is in them.
 
+use aisle_tools::output_lock::OutputLock;
 use aisle_tools::paths::same_file;
-use std::os::unix::fs::OpenOptionsExt;
 use std::path::Path;
 
 /// Refuses an output (flag, path) that names an input or another output.
@@ -34,12 +34,15 @@ pub fn distinct(inputs: &[(&str, &Path)], outputs: &[(&str, &Path)]) -> Result<(
     Ok(())
 }
 
-/// An output file the command will write at its end: refused now when the path is
-/// empty or a directory, its directory is missing, or the file cannot be opened for
-/// writing there. Names the flag, the path and the OS error.
-pub fn writable_output(flag: &str, path: &Path) -> Result<(), String> {
+/// An output file the command will write at its end, locked for it until the returned
+/// lock drops: refused now when the path is empty or a directory, its directory is
+/// missing, the file cannot be opened for writing there, or another command writes it.
+/// The lock's open is the writability probe (the open the write at the end does;
+/// `access(2)` says yes to root everywhere, also where the file system takes no new
+/// file, such as `/proc`). Names the flag, the path and the OS error.
+pub fn writable_output(flag: &str, path: &Path) -> Result<OutputLock, String> {
     output_shape(flag, path)?;
-    output_access(flag, path)
+    OutputLock::acquire(flag, path).map_err(|e| e.to_string())
 }
 
 /// The path can name an output file: not empty, not a directory, in a directory that
@@ -69,29 +72,6 @@ pub fn output_shape(flag: &str, path: &Path) -> Result<(), String> {
     Ok(())
 }
 
-/// The command may write the output file: it is opened for writing (never truncated) or,
-/// when missing, created and removed again. Asking `access(2)` is not enough: it says
-/// yes to root everywhere, also where the file system refuses every new file (`/proc`,
-/// `/sys`); the open is what the write at the end will do.
-pub fn output_access(flag: &str, path: &Path) -> Result<(), String> {
-    let cannot = |e: std::io::Error| format!("{flag} {}: cannot write it: {e}", path.display());
-    if path.symlink_metadata().is_ok() {
-        // Non-blocking: a FIFO with no reader fails at once instead of hanging here.
-        std::fs::OpenOptions::new()
-            .write(true)
-            .custom_flags(libc::O_NONBLOCK)
-            .open(path)
-            .map_err(cannot)?;
-        return Ok(());
-    }
-    std::fs::OpenOptions::new()
-        .write(true)
-        .create_new(true)
-        .open(path)
-        .map_err(cannot)?;
-    std::fs::remove_file(path).map_err(cannot)
-}
-
 fn parent_of(path: &Path) -> &Path {
     match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
@@ -107,10 +87,13 @@ mod tests {
     fn an_output_the_command_cannot_write_is_refused_before_it_runs() {
         let dir = tempfile::tempdir().unwrap();
         let new = dir.path().join("samples.csv");
-        writable_output("--samples", &new).unwrap();
+        drop(writable_output("--samples", &new).unwrap());
         assert!(!new.exists(), "the probe leaves no file behind");
         std::fs::write(&new, b"kept").unwrap();
-        writable_output("--samples", &new).unwrap();
+        let held = writable_output("--samples", &new).unwrap();
+        let e = writable_output("--json", &new).unwrap_err();
+        assert!(e.contains("another command"), "{e}");
+        drop(held);
         assert_eq!(std::fs::read(&new).unwrap(), b"kept", "never truncated");
         // Refused whoever runs it, root included (access(2) says yes to root): /proc
         // takes no new files.

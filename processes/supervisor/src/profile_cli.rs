@@ -48,10 +48,7 @@ pub fn profile(a: &ProfileArgs) -> ExitCode {
     // or one another command writes now (the locks are held until this one ends).
     let mut _locks = Vec::with_capacity(outputs.len());
     for (flag, p) in &outputs {
-        if let Err(e) = crate::file_roles::writable_output(flag, p) {
-            return crate::exit::fail(e);
-        }
-        match aisle_tools::output_lock::OutputLock::acquire(flag, p) {
+        match crate::file_roles::writable_output(flag, p) {
             Ok(l) => _locks.push(l),
             Err(e) => return crate::exit::fail(e),
         }

@@ -11,7 +11,7 @@ use aisle_config::scene::Scene;
 use aisle_messages::NodeKind;
 use aisle_node::Graph;
 use aisle_tools::latency::Budgets;
-use aisle_tools::output_lock::OutputLock;
+use aisle_tools::output_lock::{LockError, OutputLock};
 use anyhow::{anyhow, bail};
 use std::path::{Path, PathBuf};
 
@@ -37,21 +37,14 @@ pub(super) struct RunConfig {
 
 impl RunConfig {
     pub fn load(opts: &RunOptions) -> anyhow::Result<RunConfig> {
-        // Outputs first: a bad path must not cost a whole mission. The record is not
-        // the mission: one it may not write (permissions, a read-only file system) is
-        // a warning and the run goes on unrecorded; a malformed path is an error.
-        if let Some(p) = &opts.report {
-            writable_output("--report", p)?;
-        }
-        if let Some(p) = &opts.samples {
-            writable_output("--samples", p)?;
-        }
-        let mut record = opts.record.clone();
-        if let Some(p) = &opts.record {
-            output_shape("--record", p)?;
-            if let Err(e) = output_access("--record", p) {
-                tracing::warn!("{e:#}; the run goes on unrecorded");
-                record = None;
+        // Outputs first: a bad path must not cost a whole mission.
+        for (flag, p) in [
+            ("--report", &opts.report),
+            ("--samples", &opts.samples),
+            ("--record", &opts.record),
+        ] {
+            if let Some(p) = p {
+                output_shape(flag, p)?;
             }
         }
         // The live view's port, before launch: a recorder that cannot listen exits, and
@@ -74,16 +67,7 @@ impl RunConfig {
         let mut inputs: Vec<(&str, &Path)> = vec![("the mission", mission_path.as_path())];
         inputs.extend(files.all().into_iter().map(|p| ("a config file", p)));
         crate::file_roles::distinct(&inputs, &outputs).map_err(|e| anyhow!(e))?;
-        // Before launch: two runs writing one file would interleave into a corrupt one.
-        let locked = [
-            ("--report", opts.report.as_deref()),
-            ("--samples", opts.samples.as_deref()),
-            ("--record", record.as_deref()),
-        ];
-        let _outputs = locked
-            .into_iter()
-            .filter_map(|(flag, p)| Some(OutputLock::acquire(flag, p?)))
-            .collect::<Result<Vec<_>, _>>()?;
+        let (_outputs, record) = lock_outputs(opts)?;
         check::check_dir(&opts.config_dir).map_err(|e| anyhow!(e))?;
         let ground = check::Loaded::load(&files).map_err(|e| anyhow!(e))?;
         let mission =
@@ -146,18 +130,40 @@ fn parse_kill(spec: &str, graph: &Graph) -> anyhow::Result<(NodeKind, u64)> {
     Ok((kind, tick))
 }
 
-/// An output file the run will write at its end (`--report`): refused now, before
-/// anything is launched ([`crate::file_roles::writable_output`]).
-pub(crate) fn writable_output(flag: &str, path: &Path) -> anyhow::Result<()> {
+/// Locks the run's outputs before launch, each the check that the run can write it:
+/// two runs writing one file would interleave into a corrupt one. The record is not the
+/// mission: one the run may not write (permissions, a read-only file system) is a
+/// warning and the run goes on unrecorded (`None`); one another command writes is an
+/// error, as a report is.
+fn lock_outputs(opts: &RunOptions) -> anyhow::Result<(Vec<OutputLock>, Option<PathBuf>)> {
+    let mut locks = Vec::with_capacity(3);
+    for (flag, p) in [("--report", &opts.report), ("--samples", &opts.samples)] {
+        if let Some(p) = p {
+            locks.push(writable_output(flag, p)?);
+        }
+    }
+    let Some(record) = &opts.record else {
+        return Ok((locks, None));
+    };
+    match OutputLock::acquire("--record", record) {
+        Ok(lock) => locks.push(lock),
+        Err(e @ LockError::Busy { .. }) => return Err(e.into()),
+        Err(e) => {
+            tracing::warn!("{e:#}; the run goes on unrecorded");
+            return Ok((locks, None));
+        }
+    }
+    Ok((locks, Some(record.clone())))
+}
+
+/// An output file the run will write at its end, locked for it
+/// ([`crate::file_roles::writable_output`]).
+pub(crate) fn writable_output(flag: &str, path: &Path) -> anyhow::Result<OutputLock> {
     crate::file_roles::writable_output(flag, path).map_err(|e| anyhow!(e))
 }
 
 fn output_shape(flag: &str, path: &Path) -> anyhow::Result<()> {
     crate::file_roles::output_shape(flag, path).map_err(|e| anyhow!(e))
-}
-
-fn output_access(flag: &str, path: &Path) -> anyhow::Result<()> {
-    crate::file_roles::output_access(flag, path).map_err(|e| anyhow!(e))
 }
 
 #[cfg(test)]
@@ -168,7 +174,7 @@ mod tests {
     fn output_paths_are_checked_before_the_run() {
         let dir = std::env::temp_dir().join(format!("aisle-out-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
-        writable_output("--report", &dir.join("r.json")).unwrap();
+        drop(writable_output("--report", &dir.join("r.json")).unwrap());
         let e = writable_output("--report", Path::new("/nonexistent/dir/x.json")).unwrap_err();
         let e = e.to_string();
         assert!(
