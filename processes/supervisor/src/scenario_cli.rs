@@ -12,10 +12,13 @@ use std::process::ExitCode;
 pub enum ScenarioCommand {
     /// Write a config directory: a copy of the base one with warehouse.toml and
     /// mission.toml varied by (seed, family); the header of each says what changed.
-    /// Families: moved, extra, start, gap, mission, infeasible.
+    /// Families: moved, extra, start, gap, mission, infeasible. On a base whose mission
+    /// does not fit its scene (a scene of `aisle scene generate`), `mission` draws a
+    /// start and a mission of its own; the others are refused.
     #[command(
         after_help = "Exit: 0 written, 2 could not (an unknown family, --out exists and is \
-not empty and no --force, no valid draw, the output not writable)."
+not empty and no --force, no valid draw, the output not writable, a family that varies \
+a base mission that does not fit its scene)."
     )]
     Generate {
         /// Seed of the draw: the same seed and family give the same directory.

@@ -121,5 +121,55 @@ pub fn main(cmd: SceneCommand) -> ExitCode {
         layout.width,
         layout.height
     );
+    // The map must cover the floor, or the robot cannot be sent beyond the built-in
+    // map's 20 x 30 m: say what mapper.toml needs.
+    let band = aisle_mapper::MapConfig::default().boundary_band;
+    let (x0, y0, w, h) = covering_map(&scene, band);
+    println!(
+        "cover it with the map, in mapper.toml: origin = [{x0:.1}, {y0:.1}], \
+         size = [{w:.1}, {h:.1}], boundary_band = {band:.1} (at cells_per_metre = {} that is \
+         {:.0} x {:.0} cells)",
+        a.cells_per_metre,
+        w * a.cells_per_metre,
+        h * a.cells_per_metre
+    );
     ExitCode::SUCCESS
+}
+
+/// The smallest map (origin x, y and size, metres, outward to a decimetre) whose
+/// interior (the map less its boundary band `band`, where the robot may stand) covers
+/// every body of `scene`.
+fn covering_map(scene: &Scene, band: f64) -> (f64, f64, f64, f64) {
+    let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
+    for b in &scene.bodies {
+        for (x, y) in b.footprint().corners(&b.pose) {
+            (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
+        }
+    }
+    let out = |v: f64, dir: f64| dir * ((dir * v + band) * 10.0).ceil() / 10.0;
+    let (x0, y0, x1, y1) = (out(x0, -1.0), out(y0, -1.0), out(x1, 1.0), out(y1, 1.0));
+    (x0, y0, x1 - x0, y1 - y0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_covering_map_holds_every_body_within_its_interior() {
+        let dir = aisle_config::testing::shipped_dir().join("large");
+        let scene = Scene::load(&dir.join("warehouse.toml")).unwrap();
+        let (x0, y0, w, h) = covering_map(&scene, 1.0);
+        let inside = |(x, y): (f64, f64)| {
+            x >= x0 + 1.0 && y >= y0 + 1.0 && x <= x0 + w - 1.0 && y <= y0 + h - 1.0
+        };
+        assert!(
+            scene
+                .bodies
+                .iter()
+                .all(|b| b.footprint().corners(&b.pose).into_iter().all(inside))
+        );
+        // Tight: the 99.2 x 199.4 m hall, a band of 1 m each side, a decimetre's rounding.
+        assert!(w <= 99.2 + 2.0 + 0.2 && h <= 199.4 + 2.0 + 0.2, "{w} x {h}");
+    }
 }

@@ -117,6 +117,17 @@ fn default_tolerance() -> [f64; 3] {
 }
 
 impl MissionConfig {
+    /// `mission.toml`'s settings without its legs (the start pose, timing and
+    /// tolerances, each checked): what a generator keeps when it draws the legs anew
+    /// for a scene the file's legs do not fit.
+    pub fn load_settings(path: &Path) -> Result<MissionConfig, ConfigError> {
+        let (mut cfg, text) = aisle_config::load_toml::<MissionConfig>(path)?;
+        let bad = |key: &str, why: String| ConfigError::invalid(path, &text, key, why);
+        cfg.check_numbers(&bad)?;
+        cfg.leg.clear();
+        Ok(cfg)
+    }
+
     /// Loads and validates `mission.toml`; body names are checked against the scene.
     pub fn load(path: &Path, scene: &Scene) -> Result<MissionConfig, ConfigError> {
         let (cfg, text) = aisle_config::load_toml::<MissionConfig>(path)?;

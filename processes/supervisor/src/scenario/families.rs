@@ -171,10 +171,15 @@ pub fn start(g: &Ground, rng: &mut ChaCha8Rng, d: &mut Draft) -> bool {
 /// free drop pose and heading at least 3 m away; in a third of the draws, pick a second
 /// rack the same way straight after (the leg to it starts under the first, just set
 /// down) and carry it away too; park at a free pose at least 2.5 m from the drops. No
-/// `depart`.
+/// `depart`. On a base whose mission does not fit its scene, the start is drawn too
+/// (as by [`start`]).
 pub fn mission(g: &Ground, rng: &mut ChaCha8Rng, d: &mut Draft) -> bool {
     let racks = g.racks();
     if racks.is_empty() {
+        return false;
+    }
+    // A base mission that does not fit the scene has no start to keep either.
+    if g.mission_unfit.is_some() && !start(g, rng, d) {
         return false;
     }
     let first = racks[rng.random_range(0..racks.len())];

@@ -1,5 +1,6 @@
 //! What a scenario is generated from: the base config directory loaded once (scene,
-//! robot footprints, the map's interior, the static map, the base mission), and the
+//! robot footprints, the map's interior, the static map, the base mission or, when it
+//! does not fit the scene, its settings), and the
 //! layout of bodies the generator places things against. Knows the config files, not
 //! the families.
 
@@ -35,7 +36,12 @@ pub struct Placed {
 /// The base config directory, loaded.
 pub struct Ground {
     pub scene: Scene,
+    /// The base mission; only its settings (no legs) when it does not fit the scene.
     pub mission: MissionConfig,
+    /// Why the base mission does not fit the scene (a scene replaced by `aisle scene
+    /// generate`, say): then only the `mission` family, which draws a mission of its
+    /// own, can be generated.
+    pub mission_unfit: Option<String>,
     /// The map's extent (mapper.toml origin and size).
     pub map: Extent,
     /// The map minus its boundary band: where a footprint may stand.
@@ -52,8 +58,13 @@ impl Ground {
     pub fn load(dir: &Path) -> Result<Ground, String> {
         let files = ConfigFiles::in_dir(dir);
         let loaded = Loaded::load(&files)?;
-        let mission =
-            MissionConfig::load(&files.mission, &loaded.scene).map_err(|e| e.to_string())?;
+        let (mission, mission_unfit) = match MissionConfig::load(&files.mission, &loaded.scene) {
+            Ok(m) => (m, None),
+            Err(unfit) => match MissionConfig::load_settings(&files.mission) {
+                Ok(settings) => (settings, Some(unfit.to_string())),
+                Err(_) => return Err(unfit.to_string()),
+            },
+        };
         let map_cfg = aisle_config::load::<aisle_mapper::MapConfig>(&files.mapper)
             .map_err(|e| e.to_string())?;
         let static_map = aisle_mapper::load_static_map(&map_cfg, &files.scene)
@@ -70,7 +81,21 @@ impl Ground {
             carrying_margin: fp.carrying.margin,
             scene: loaded.scene,
             mission,
+            mission_unfit,
             static_map,
+        })
+    }
+
+    /// Why `family` cannot be generated from this base: every family but `mission`
+    /// varies the base mission, so it needs one that fits the scene.
+    pub fn unfit_for(&self, family: super::Family) -> Option<String> {
+        let why = self.mission_unfit.as_ref()?;
+        (family != super::Family::Mission).then(|| {
+            format!(
+                "the base config: {why}; --family {} varies the base mission, so it needs \
+                 one that fits the scene (--family mission draws a mission of its own)",
+                family.name()
+            )
         })
     }
 

@@ -132,7 +132,10 @@ impl Draft {
             .collect();
         let start = g.mission.start_pose();
         let mut layout = g.layout();
-        layout.keep_out = sample::keep_out(g, start, &legs);
+        // An unfit base mission keeps nothing free: its start is drawn anew.
+        if g.mission_unfit.is_none() {
+            layout.keep_out = sample::keep_out(g, start, &legs);
+        }
         Draft {
             layout,
             moved: Vec::new(),
@@ -209,6 +212,9 @@ pub fn generate(opts: &GenerateOptions) -> Result<Generated, String> {
 
 /// [`generate`] from a base directory already loaded (a sweep loads it once).
 pub fn generate_from(g: &Ground, opts: &GenerateOptions) -> Result<Generated, String> {
+    if let Some(why) = g.unfit_for(opts.family) {
+        return Err(why);
+    }
     let mut last = String::from("no room for it in this scene");
     for attempt in 0..ATTEMPTS {
         let mut rng = rng_for(opts.seed, opts.family, attempt);

@@ -154,3 +154,56 @@ fn the_oracle_makes_every_unnamed_movable_body_static() {
         let _ = std::fs::remove_dir_all(d);
     }
 }
+
+/// A scene the base mission does not fit (one `aisle scene generate` wrote, the map
+/// resized to it): the `mission` family draws a start and a mission of its own that
+/// pass `check`; the families that vary the base mission are refused, naming why.
+#[test]
+fn a_new_scene_gets_missions_of_its_own() {
+    use aisle_config::scene_gen::{GenParams, generate};
+    let new_base = scratch("new-scene-base");
+    write::copy_tree(&base(), &new_base).unwrap();
+    let mut params = GenParams::new(3, 45.0, 5);
+    params.aisle_width = 2.6;
+    params.cross_every = 15.0;
+    std::fs::write(new_base.join("warehouse.toml"), generate(&params)).unwrap();
+    // 14.8 x 72.4 m: the map `aisle scene generate` proposes for it.
+    let mapper = text(&new_base, "mapper.toml");
+    let resized = mapper
+        .replace("origin = [-5.0, -10.0]", "origin = [-1.0, -1.0]")
+        .replace("size = [20.0, 30.0]", "size = [16.8, 74.4]");
+    assert_ne!(resized, mapper, "the shipped map's lines");
+    std::fs::write(new_base.join("mapper.toml"), resized).unwrap();
+
+    let g = Ground::load(&new_base).unwrap();
+    let unfit = g
+        .mission_unfit
+        .clone()
+        .expect("the seed mission names seed racks");
+    let out = scratch("new-scene");
+    for seed in 1..=3 {
+        let opts = GenerateOptions {
+            seed,
+            family: Family::Mission,
+            out: out.clone(),
+            base: new_base.clone(),
+        };
+        let made = generate_from(&g, &opts).unwrap();
+        assert!(
+            made.varied.iter().any(|v| v.starts_with("start")),
+            "{:?}",
+            made.varied
+        );
+        crate::check::check_dir(&out).unwrap();
+    }
+    let opts = GenerateOptions {
+        seed: 1,
+        family: Family::Moved,
+        out: out.clone(),
+        base: new_base.clone(),
+    };
+    let e = generate_from(&g, &opts).unwrap_err();
+    assert!(e.contains(&unfit) && e.contains("--family mission"), "{e}");
+    let _ = std::fs::remove_dir_all(out);
+    let _ = std::fs::remove_dir_all(new_base);
+}

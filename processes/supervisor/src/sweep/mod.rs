@@ -62,6 +62,9 @@ pub fn scenario_seed(seed: u64, i: usize) -> u64 {
 pub fn sweep(opts: &SweepOptions) -> Result<SweepReport, String> {
     let started = Instant::now();
     let ground = Ground::load(&opts.base).map_err(|e| format!("the base config: {e}"))?;
+    if let Some(why) = opts.families.iter().find_map(|&f| ground.unfit_for(f)) {
+        return Err(why);
+    }
     let exe = std::env::current_exe().map_err(|e| format!("cannot find this executable: {e}"))?;
     for sub in ["scenarios", "oracles", "runs", "failures"] {
         let d = opts.out.join(sub);
