@@ -10,6 +10,7 @@
 
 use crate::distance_map::DistanceMap;
 use crate::motion::Motion;
+use crate::motion_cache;
 use aisle_geometry::{FREE, Footprint, GridView, Pose2};
 use std::cell::Cell;
 use std::f64::consts::FRAC_1_SQRT_2;
@@ -224,6 +225,9 @@ pub(crate) struct FootprintChecker<'a> {
     first: Cell<Option<([u64; 3], Probe)>>,
     /// The disk whose clearance failed last, tried first.
     failed_disk: Cell<usize>,
+    /// The largest distance read since it was last reset: how far a map change can be
+    /// and still alter what a motion check read (`motion_cache.rs`).
+    read_max: Cell<f64>,
 }
 
 impl<'a> FootprintChecker<'a> {
@@ -257,6 +261,7 @@ impl<'a> FootprintChecker<'a> {
             r_disk: 0.5 * tl.hypot(tw),
             first: Cell::new(None),
             failed_disk: Cell::new(0),
+            read_max: Cell::new(0.0),
         }
     }
 
@@ -267,6 +272,7 @@ impl<'a> FootprintChecker<'a> {
         let dm = self.dm;
         let (cx, cy) = dm.cell(x, y)?;
         let d = f64::from(dm.dist_at(cx, cy));
+        self.read_max.set(self.read_max.get().max(d));
         let ccx = dm.origin_x + (cx as f64 + 0.5) * dm.resolution;
         let ccy = dm.origin_y + (cy as f64 + 0.5) * dm.resolution;
         let (ex, ey) = (x - ccx, y - ccy);
@@ -278,9 +284,31 @@ impl<'a> FootprintChecker<'a> {
         self.r_circ
     }
 
-    /// Whether `base` at `p` is free (exact, no cover).
+    /// Whether `base` at `p` is free (exact, no cover). Answered from the distance map's
+    /// memo when checked on the same cells before.
     pub fn pose_free(&self, p: &Pose2) -> bool {
-        !self.rect_hits(&self.base, p, p.theta.sin_cos())
+        let key = motion_cache::pose_key([self.base.length, self.base.width], p);
+        if let Some(e) = self.dm.motions.borrow().get(&key) {
+            return e.free;
+        }
+        let free = !self.rect_hits(&self.base, p, p.theta.sin_cos());
+        // The scan reads the cells the rectangle touches: within its circumscribed
+        // radius of the centre, plus a cell either side for round-off.
+        let (dm, grow) = (self.dm, self.r_circ + 2.0 * self.dm.resolution);
+        let cell = |v: f64, o: f64| floor_i64((v - o) / dm.resolution);
+        let region = [
+            cell(p.x - grow, dm.origin_x),
+            cell(p.y - grow, dm.origin_y),
+            cell(p.x + grow, dm.origin_x),
+            cell(p.y + grow, dm.origin_y),
+        ];
+        let entry = motion_cache::Entry {
+            free,
+            probes: 0,
+            region,
+        };
+        dm.motions.borrow_mut().insert(key, entry);
+        free
     }
 
     #[inline]
@@ -367,8 +395,48 @@ impl<'a> FootprintChecker<'a> {
     }
 
     /// Whether `base` stays free at every pose of `motion` from `from` (continuously, not
-    /// only at samples). Returns the number of probes through `probes`.
+    /// only at samples). Returns the number of probes through `probes`. Answered from the
+    /// distance map's memo when this check was made on the same cells before.
     pub fn motion_free(&self, from: &Pose2, motion: &Motion, probes: &mut u64) -> bool {
+        let checker = [self.base.length, self.base.width, self.cover];
+        let key = motion_cache::key(checker, from, motion);
+        if let Some(e) = self.dm.motions.borrow().get(&key) {
+            *probes += u64::from(e.probes);
+            return e.free;
+        }
+        self.read_max.set(0.0);
+        let mut n = 0;
+        let free = self.sweep(from, motion, &mut n);
+        *probes += n;
+        // Sample centres stay within `total` of the start; a probe reads distances within
+        // the circumscribed radius of its centre and occupancy within the footprint grown
+        // by the cover; a read distance d changes only by a cell within d of it (plus
+        // cells of round-off).
+        let total = motion.sweep_bound(from, self.r_circ);
+        let res = self.dm.resolution;
+        let grow = total + self.r_circ + 2.0 * self.cover + self.read_max.get() + 3.0 * res;
+        let cell = |v: f64, o: f64| floor_i64((v - o) / res);
+        let (ox, oy) = (self.dm.origin_x, self.dm.origin_y);
+        let region = [
+            cell(from.x - grow, ox),
+            cell(from.y - grow, oy),
+            cell(from.x + grow, ox),
+            cell(from.y + grow, oy),
+        ];
+        let probes = u32::try_from(n).unwrap_or(u32::MAX);
+        if probes < u32::MAX {
+            let entry = motion_cache::Entry {
+                free,
+                probes,
+                region,
+            };
+            self.dm.motions.borrow_mut().insert(key, entry);
+        }
+        free
+    }
+
+    /// [`FootprintChecker::motion_free`] computed.
+    fn sweep(&self, from: &Pose2, motion: &Motion, probes: &mut u64) -> bool {
         let total = motion.sweep_bound(from, self.r_circ);
         // Every sample turns from the same heading.
         let turn = from.theta.sin_cos();

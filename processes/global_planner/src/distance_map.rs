@@ -11,9 +11,12 @@
 //! there than tile by tile with their margins). A map that differs in a few cells (the
 //! mapper's detections between two requests) drops the tiles within the cap of them, to
 //! be computed again when read; every value read is bit for bit that of a whole-grid
-//! transform of the current cells. Knows nothing of footprints or search.
+//! transform of the current cells. It also holds the memo of motion checks made on
+//! these cells (`motion_cache.rs`), whose entries a change drops where it can reach
+//! them. Knows nothing of footprints or search.
 
 use crate::dist_tiles::{self, Cells, Envelope, FAR};
+use crate::motion_cache::MotionCache;
 use aisle_geometry::GridView;
 use std::cell::{Cell, OnceCell, RefCell};
 
@@ -99,6 +102,8 @@ pub(crate) struct DistanceMap {
     pub force_lazy: bool,
     /// Whether the last rebuild filled every tile (a small map).
     pub filled_whole: bool,
+    /// Motion checks made on these cells (`motion_cache.rs`).
+    pub motions: RefCell<MotionCache>,
 }
 
 impl DistanceMap {
@@ -131,6 +136,7 @@ impl DistanceMap {
         drop_tiles(&mut self.bits, self.tiles_x, changed);
         let dists = changed.grown(r, r, w, h);
         drop_tiles(&mut self.dist, self.tiles_x, dists);
+        self.motions.get_mut().invalidate(changed);
         if self.changes.len() == CHANGE_LOG {
             self.changes.remove(0);
         }
@@ -216,6 +222,7 @@ impl DistanceMap {
         self.dist.clear();
         self.dist.resize_with(n, OnceCell::new);
         self.tiles_computed.set(0);
+        self.motions.get_mut().clear();
         self.last_recomputed = w * h;
         self.filled_whole = w * h <= EAGER_CELLS && !self.force_lazy;
         if self.filled_whole {

@@ -37,6 +37,9 @@ const RING: usize = 16;
 const BLOCKED: u32 = 0;
 const UNREACHED: u32 = u32::MAX - 1;
 const UNKNOWN: u32 = u32::MAX;
+/// Reached before a repair, which took its distance away (`incremental.rs`): unreached,
+/// but already listed in `touched`, so that reaching it again does not list it twice.
+const FORGOTTEN: u32 = u32::MAX - 2;
 
 #[derive(Debug, Default)]
 pub(crate) struct GridHeuristic {
@@ -72,6 +75,13 @@ pub(crate) struct GridHeuristic {
     /// cells it made unreached again (forgotten or freed).
     redecided: Vec<(usize, u32)>,
     reopened: Vec<u32>,
+    /// An in-place repair's scratch (`incremental.rs`): cells by distance, and the cells
+    /// whose distance it took away.
+    repair_heap: BinaryHeap<Reverse<(u32, u32)>>,
+    affected: Vec<u32>,
+    /// Repairs done in place (tests: that the path under test ran).
+    #[cfg(test)]
+    in_place: usize,
     level: u32,
     pending: usize,
     /// Coarse cell of the start (the A* target); `None`: Dijkstra.
@@ -442,6 +452,7 @@ impl Open<'_> {
 }
 
 mod coarse;
+mod incremental;
 mod repair;
 #[cfg(test)]
 mod tests;

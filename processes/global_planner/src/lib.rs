@@ -46,6 +46,7 @@ mod heuristic;
 pub mod large_map;
 mod model;
 pub mod motion;
+mod motion_cache;
 pub mod node;
 pub mod reeds_shepp;
 mod relief;

@@ -181,6 +181,7 @@ impl Planner {
         let goal = Pose2::new(req.goal.x, req.goal.y, wrap_angle(req.goal.theta));
         self.dm.force_lazy = self.lazy_only;
         stats.map_rebuilt = self.dm.ensure(map);
+        self.dm.motions.get_mut().begin_request();
 
         let cfg = &self.cfg;
         let model = &self.model;

@@ -14,10 +14,14 @@
 //! case). Scans use one thread as shipped (`scan_threads`); the `two threads` cases
 //! sweep half a tilted scan's columns on a second thread.
 
+#[path = "support/cases.rs"]
+mod cases;
+
 use aisle_config::scene::{Body, BoxPart, Scene};
-use aisle_config::scene_gen::{GenParams, Layout, generate_scene};
+use aisle_config::scene_gen::generate_scene;
 use aisle_geometry::Pose2;
 use aisle_lidar::{LidarConfig, ParryReference, Raycaster, SensorPose};
+use cases::{on_robot, robot_in_aisle};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use std::hint::black_box;
 
@@ -154,32 +158,12 @@ fn scans(c: &mut Criterion) {
     g.finish();
 }
 
-/// The sensor in the middle aisle of `p`'s layout, 14 m in, heading along it; level or
-/// with the tilted mount.
-fn in_aisle(p: &GenParams, tilted: bool) -> SensorPose {
-    let layout = Layout::new(p);
-    // aisles[0..2] are the main and back cross aisles, then the picking aisles.
-    let a = layout.aisles[2 + p.aisles as usize / 2];
-    let robot = Pose2::new(
-        0.5 * (a[0] + a[2]),
-        a[1] + 14.0,
-        std::f64::consts::FRAC_PI_2,
-    );
-    let rpy = if tilted { [0.05, -0.1, 0.0] } else { [0.0; 3] };
-    SensorPose::on_robot(&robot, &SensorPose::from_xyz_rpy([0.25, 0.1, 0.2], rpy))
-}
-
 fn generated(c: &mut Criterion) {
     let mut quiet = LidarConfig::default();
     quiet.noise.enabled = false;
     let mut g = c.benchmark_group("generated");
     g.throughput(Throughput::Elements(37_231));
-    for (label, p) in [
-        ("1k", GenParams::new(4, 80.0, 1)),
-        ("5k", GenParams::new(10, 150.0, 1)),
-        ("large", GenParams::new(19, 172.0, 1)),
-        ("20k", GenParams::new(28, 230.0, 1)),
-    ] {
+    for (label, p) in cases::generated() {
         let scene = generate_scene(&p);
         let mut r = Raycaster::new(&quiet, &scene).expect("raycaster");
         let two = LidarConfig {
@@ -190,7 +174,7 @@ fn generated(c: &mut Criterion) {
         let mut out = vec![[0.0f32; 3]; r.len()];
         let n = scene.bodies.len();
         for tilted in [false, true] {
-            let pose = in_aisle(&p, tilted);
+            let pose = on_robot(&robot_in_aisle(&p), tilted);
             let kind = if tilted { "tilted" } else { "level" };
             g.bench_function(format!("{kind} {label} ({n} bodies)"), |b| {
                 b.iter(|| {
@@ -199,7 +183,7 @@ fn generated(c: &mut Criterion) {
                 })
             });
         }
-        let pose = in_aisle(&p, true);
+        let pose = on_robot(&robot_in_aisle(&p), true);
         g.bench_function(format!("tilted {label} ({n} bodies), two threads"), |b| {
             b.iter(|| {
                 r2.scan(black_box(&pose), 0, &mut out).expect("scan");

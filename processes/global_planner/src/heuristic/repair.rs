@@ -10,9 +10,12 @@
 //! kept cells' neighbours become the open list again (queued by f in a heap, since their
 //! f spans more levels than the ring holds). A* from that state closes every further cell
 //! at its exact distance (the kept cells are exact and their neighbours relaxed), so
-//! queries answer as a flood of the changed map would. Knows nothing of the planner.
+//! queries answer as a flood of the changed map would. A change whose flips all go one
+//! way (a detection appearing or going away) is repaired in place instead, touching only
+//! the cells whose distance it alters (`incremental.rs`); the cut is for changes that
+//! block and free at once. Knows nothing of the planner.
 
-use super::{BLOCKED, GridHeuristic, UNKNOWN, UNREACHED, geometry_of, octile};
+use super::{BLOCKED, FORGOTTEN, GridHeuristic, UNKNOWN, UNREACHED, geometry_of, octile};
 use crate::distance_map::DistanceMap;
 use std::cmp::Reverse;
 
@@ -52,7 +55,7 @@ impl GridHeuristic {
             self.lazy_goal = None;
             return false;
         }
-        if cut == u32::MAX {
+        if cut == u32::MAX || self.repair_in_place(dm, start) {
             return true;
         }
         self.forget_from(cut);
@@ -98,7 +101,7 @@ impl GridHeuristic {
             match (old == BLOCKED, self.g[i] == BLOCKED) {
                 (false, false) => self.g[i] = old,
                 (false, true) => {
-                    if old < UNREACHED {
+                    if old < FORGOTTEN {
                         cut = cut.min(old);
                     }
                     if self.closed[i] {

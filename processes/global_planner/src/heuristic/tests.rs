@@ -245,3 +245,93 @@ fn a_repaired_search_answers_as_a_flood_of_the_changed_map() {
         "{repaired} {cut} {compared}"
     );
 }
+
+/// A detection appearing or going away (cells blocked only, or freed only) is repaired in
+/// place (`incremental.rs`): every answer that of a flood of the changed map, through
+/// many changes in a row, near the goal and far, with the closed cells still counted as
+/// a flood would; a change that blocks and frees at once takes the cut (`repair.rs`).
+#[test]
+fn an_in_place_repair_answers_as_a_flood_of_the_changed_map() {
+    use aisle_geometry::FREE;
+    let mut g = GridMap::new_free(0.0, 0.0, 0.05, 30.0, 20.0).unwrap();
+    let (w, h) = (g.view().width as i64, g.view().height as i64);
+    let mut next = crate::tests::stream(0xbb67_ae85_84ca_a73b);
+    for _ in 0..50 {
+        let (x0, y0, len) = (next(w), next(h), 10 + next(120));
+        for k in 0..len {
+            g.set(CellIndex { ix: x0 + k, iy: y0 }, OCCUPIED_STATIC);
+        }
+    }
+    let point = |k: i64| {
+        (
+            0.1 + k as f64 * 0.0337 % 29.8,
+            0.1 + k as f64 * 0.0713 % 19.8,
+        )
+    };
+    let mut dm = DistanceMap::default();
+    dm.force_lazy = true;
+    dm.ensure(&g.view());
+    let (mut whole, mut lazy) = (GridHeuristic::default(), GridHeuristic::default());
+    let goal = loop {
+        let goal = point(next(100_000));
+        if whole.begin(&dm, 0.3, 0.1, (goal, goal), true) {
+            break goal;
+        }
+    };
+    let (mut compared, mut boxes) = (0, Vec::new());
+    let set_box = |g: &mut GridMap, (x0, y0): (i64, i64), v: u8| {
+        for k in 0..49 {
+            g.set(
+                CellIndex {
+                    ix: x0 + k % 7,
+                    iy: y0 + k / 7,
+                },
+                v,
+            );
+        }
+    };
+    for round in 0..40 {
+        let start = point(next(100_000));
+        if round > 0 {
+            // A box of detections added, or the oldest taken away; every fifth round
+            // both at once.
+            let add = round % 5 == 4 || boxes.len() < 2 || next(2) == 0;
+            let remove = round % 5 == 4 || !add;
+            if remove && !boxes.is_empty() {
+                let b = boxes.remove(0);
+                set_box(&mut g, b, FREE);
+            }
+            if add {
+                let b = (next(w - 7), next(h - 7));
+                boxes.push(b);
+                set_box(&mut g, b, OCCUPIED_STATIC);
+            }
+            dm.ensure(&g.view());
+        }
+        let ok = whole.begin(&dm, 0.3, 0.1, (goal, start), true);
+        let reachable = whole.settled;
+        if !lazy.begin(&dm, 0.3, 0.1, (goal, start), false) {
+            assert!(!ok, "round {round}");
+            continue;
+        }
+        assert!(ok, "round {round}");
+        for (x, y) in std::iter::once(start).chain((0..300).map(|_| point(next(100_000)))) {
+            let a = whole.metres(&dm, x, y);
+            assert_eq!(
+                a.map(f64::to_bits),
+                lazy.metres(&dm, x, y).map(f64::to_bits),
+                "round {round}"
+            );
+            compared += 1;
+        }
+        if round % 7 == 6 {
+            lazy.complete(&dm);
+            assert_eq!(lazy.settled, reachable, "round {round}");
+        }
+    }
+    assert!(
+        lazy.in_place >= 15 && compared > 10_000,
+        "{} {compared}",
+        lazy.in_place
+    );
+}

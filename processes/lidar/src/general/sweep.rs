@@ -2,12 +2,13 @@
 //! whose span covers it nearest first (a [`Cursor`] over the placed spans), stopping at
 //! the first one beyond every row's best hit; per box, where the column's vertical
 //! half-plane crosses the box's bounding box gives a lower bound on the distance of a
-//! hit and the elevations that can hit it, so only those rows run the 3D slab test.
+//! hit and the heights where it can be, so only the rows that reach those heights
+//! there (two products a row) run the 3D slab test, four rays at a time.
 //! A [`Lane`] is one thread's scratch; lanes over disjoint column ranges write disjoint
 //! points, each the same as one sweep over every column would. Knows nothing of threads.
 
 use super::place::{Placement, SensorObb};
-use crate::column::{Column, Cursor, RowTable};
+use crate::column::{Column, Cursor};
 use crate::pattern::ScanPattern;
 use crate::planar::slab;
 use std::ops::Range;
@@ -60,7 +61,7 @@ impl Lane {
                     break;
                 }
                 let o = &p.obbs[a.item()];
-                cast_obb(o, ca, sa, pattern, &p.table, &mut self.column);
+                cast_obb(o, ca, sa, pattern, &mut self.column);
             }
             for row in 0..rows {
                 out[row * stride + col - first] = if self.column.hit[row] {
@@ -108,14 +109,7 @@ impl Lane {
 /// distance t is t cos e along (ca, sa) in the xy plane, so it can meet the box only
 /// where that 2D ray crosses the box's xy bounding box, at s_in <= t cos e <= t.
 #[inline]
-fn cast_obb(
-    o: &SensorObb,
-    ca: f32,
-    sa: f32,
-    pattern: &ScanPattern,
-    table: &RowTable,
-    column: &mut Column,
-) {
+fn cast_obb(o: &SensorObb, ca: f32, sa: f32, pattern: &ScanPattern, column: &mut Column) {
     let Some((sx0, sx1)) = slab(-o.xy[0], ca, o.ext[0]) else {
         return;
     };
@@ -123,35 +117,93 @@ fn cast_obb(
         return;
     };
     let s_in = sx0.max(sy0).max(0.0);
-    let s_out = sx1.min(sy1);
-    if s_in > s_out {
-        return;
-    }
+    // No hit lies beyond max range, so neither does its horizontal distance.
+    let s_out = sx1.min(sy1).min(pattern.max_range);
     // + 0.0 turns a -0.0 into 0.0.
     let near = o.near.max(s_in) + 0.0;
-    if column.beyond(near) {
+    if s_in > s_out || column.beyond(near) {
         return;
     }
-    let (tan_lo, tan_hi) = tan_bounds(s_in, s_out, o.z);
-    let Some((first, last)) = table.rows(tan_lo, tan_hi) else {
-        return;
-    };
     let cand = Candidate {
         a: o.axes.map(|ax| ax[0] * ca + ax[1] * sa),
         b: o.axes.map(|ax| ax[2]),
         origin: o.origin,
         half: o.half,
     };
-    for row in first..=last {
-        let best = column.best[row];
-        let tan_e = pattern.tan_el[row];
-        if near > best || tan_e < tan_lo || tan_e > tan_hi {
+    let (first, last) = (o.rows[0] as usize, o.rows[1] as usize);
+    let z = o.z;
+    // Rows in groups of LANES: a group's three divisions per ray issue as three vector
+    // divisions. A lane past `last` repeats `last` and is never set. A row may meet
+    // the box where its height over [s_in, s_out] (tan e times those) crosses z: two
+    // products, where the tangents of the box's elevations would take two divisions
+    // and a table lookup in the chain of every box (its rows in any column come from
+    // `place.rs`).
+    for row in (first..=last).step_by(LANES) {
+        let at = |k: usize| (row + k).min(last);
+        let best: [f32; LANES] = std::array::from_fn(|k| column.best[at(k)]);
+        let wanted: [bool; LANES] = std::array::from_fn(|k| {
+            let tan_e = pattern.tan_el[at(k)];
+            let (p, q) = (tan_e * s_in, tan_e * s_out);
+            (row + k <= last) & (near <= best[k]) & (p.max(q) >= z[0]) & (p.min(q) <= z[1])
+        });
+        if !wanted.contains(&true) {
             continue;
         }
-        if let Some(t) = entry(&cand, pattern.cos_el[row], pattern.sin_el[row], best) {
-            column.set(row, t);
+        let ce: [f32; LANES] = std::array::from_fn(|k| pattern.cos_el[at(k)]);
+        let se: [f32; LANES] = std::array::from_fn(|k| pattern.sin_el[at(k)]);
+        let (t, hit) = entries(&cand, &ce, &se, &best, o.plain);
+        for k in 0..LANES {
+            if wanted[k] && hit[k] {
+                column.set(row + k, t[k]);
+            }
         }
     }
+}
+
+/// Rays whose box tests run side by side: four f32 lanes, one SSE register.
+const LANES: usize = 4;
+
+/// Below this (in magnitude) a slab's bound or a direction component sends a group of
+/// rays to [`entry`] one by one: above it, no quotient in the slab test is zero, NaN
+/// or infinite, where `f32::min` and `max` would differ from a comparison.
+pub(super) const TINY: f32 = 1e-30;
+
+/// [`entry`] for LANES rays of one column (cos and sin of their elevations `ce`, `se`)
+/// at once, and whether each is a hit. Each lane's entry is the same bits as
+/// [`entry`]'s: the same operations in the same order, and where no operand is zero,
+/// NaN or infinite (`plain`: the box's slab bounds; the directions are checked here),
+/// a comparison picks what `f32::min` and `max` would, without their NaN handling.
+#[inline]
+fn entries(
+    c: &Candidate,
+    ce: &[f32; LANES],
+    se: &[f32; LANES],
+    best: &[f32; LANES],
+    plain: bool,
+) -> ([f32; LANES], [bool; LANES]) {
+    let d: [[f32; LANES]; 3] =
+        std::array::from_fn(|i| std::array::from_fn(|k| ce[k] * c.a[i] + se[k] * c.b[i]));
+    if !plain || d.iter().flatten().any(|&v| v.abs() < TINY) {
+        let each: [Option<f32>; LANES] = std::array::from_fn(|k| entry(c, ce[k], se[k], best[k]));
+        return (each.map(|t| t.unwrap_or(0.0)), each.map(|t| t.is_some()));
+    }
+    let min = |a: f32, b: f32| if a < b { a } else { b };
+    let max = |a: f32, b: f32| if a > b { a } else { b };
+    let mut t0 = [0.0f32; LANES];
+    let mut t1 = [f32::INFINITY; LANES];
+    for (i, di) in d.iter().enumerate() {
+        let lo = -c.half[i] - c.origin[i];
+        let hi = c.half[i] - c.origin[i];
+        for k in 0..LANES {
+            let inv = 1.0 / di[k];
+            let ta = lo * inv;
+            let tb = hi * inv;
+            t0[k] = max(t0[k], min(ta, tb));
+            t1[k] = min(t1[k], max(ta, tb));
+        }
+    }
+    let hit = std::array::from_fn(|k| t0[k] <= t1[k] && t0[k] <= best[k]);
+    (t0, hit)
 }
 
 /// The tangents of the elevations of the points at horizontal distance in [`s_in`,
@@ -215,4 +267,57 @@ fn entry_parallel(c: &Candidate, d: [f32; 3], best: f32) -> Option<f32> {
         }
     }
     (t0 <= t1 && t0 <= best).then_some(t0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A deterministic stream in [0, 1).
+    fn stream(mut s: u64) -> impl FnMut() -> f32 {
+        move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 40) as f32 / (1u64 << 24) as f32
+        }
+    }
+
+    #[test]
+    fn four_rays_at_once_give_the_bits_of_one_at_a_time() {
+        let mut next = stream(0x4_1A2E);
+        let mut hits = 0;
+        for case in 0..20_000 {
+            let mut c = Candidate {
+                a: std::array::from_fn(|_| 2.0 * next() - 1.0),
+                b: std::array::from_fn(|_| 2.0 * next() - 1.0),
+                origin: std::array::from_fn(|_| 12.0 * next() - 6.0),
+                half: std::array::from_fn(|_| 0.02 + 2.0 * next()),
+            };
+            // The cases the fast path must leave to `entry`: the sensor on a face's
+            // plane, a ray parallel to a face pair.
+            match case % 5 {
+                0 => c.origin[case % 3] = c.half[case % 3],
+                1 => c.origin[case % 3] = -c.half[case % 3],
+                2 => (c.a[case % 3], c.b[case % 3]) = (0.0, 0.0),
+                _ => {}
+            }
+            let plain = (0..3).all(|i| {
+                (c.half[i] - c.origin[i]).abs() >= TINY && (-c.half[i] - c.origin[i]).abs() >= TINY
+            });
+            let e: [f32; LANES] = std::array::from_fn(|_| 1.5 * next() - 0.75);
+            let (ce, se) = (e.map(f32::cos), e.map(f32::sin));
+            let best: [f32; LANES] = std::array::from_fn(|_| 15.0 * next());
+            let (t, hit) = entries(&c, &ce, &se, &best, plain);
+            for k in 0..LANES {
+                let one = entry(&c, ce[k], se[k], best[k]);
+                assert_eq!(hit[k], one.is_some(), "case {case} lane {k}");
+                if let Some(want) = one {
+                    assert_eq!(t[k].to_bits(), want.to_bits(), "case {case} lane {k}");
+                    hits += 1;
+                }
+            }
+        }
+        assert!(hits > 2_000, "{hits}");
+    }
 }

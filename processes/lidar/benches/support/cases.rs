@@ -1,0 +1,36 @@
+//! The generated warehouses and the sensor pose in them that `benches/scan.rs` times
+//! and `examples/scan_cpu.rs` measures in CPU time: one list, so both speak of the same
+//! scans.
+
+use aisle_config::scene_gen::{GenParams, Layout};
+use aisle_geometry::Pose2;
+use aisle_lidar::SensorPose;
+
+/// Label and parameters of each generated warehouse (about 1k, 5k, 10k and 20k bodies;
+/// `large` is `config/large`'s).
+pub fn generated() -> [(&'static str, GenParams); 4] {
+    [
+        ("1k", GenParams::new(4, 80.0, 1)),
+        ("5k", GenParams::new(10, 150.0, 1)),
+        ("large", GenParams::new(19, 172.0, 1)),
+        ("20k", GenParams::new(28, 230.0, 1)),
+    ]
+}
+
+/// The robot in the middle aisle of `p`'s layout, 14 m in, heading along it.
+pub fn robot_in_aisle(p: &GenParams) -> Pose2 {
+    let layout = Layout::new(p);
+    // aisles[0..2] are the main and back cross aisles, then the picking aisles.
+    let a = layout.aisles[2 + p.aisles as usize / 2];
+    Pose2::new(
+        0.5 * (a[0] + a[2]),
+        a[1] + 14.0,
+        std::f64::consts::FRAC_PI_2,
+    )
+}
+
+/// The sensor of a robot at `robot`: the bench's mount, level or tilted.
+pub fn on_robot(robot: &Pose2, tilted: bool) -> SensorPose {
+    let rpy = if tilted { [0.05, -0.1, 0.0] } else { [0.0; 3] };
+    SensorPose::on_robot(robot, &SensorPose::from_xyz_rpy([0.25, 0.1, 0.2], rpy))
+}
