@@ -23,7 +23,11 @@
 //!    it when those rows no longer see it in the same scan.
 //! 2. **Forget the ignored rectangles.** Detected cells whose centre lies in the robot's
 //!    footprint, the carried rack's footprint or a supervisor-given rectangle (the rack
-//!    being approached) are cleared, so they never stay obstacles from earlier scans.
+//!    being approached, grown by the ignore margin) are cleared, so they never stay
+//!    obstacles from earlier scans. The robot's and the carried rack's margin ring is
+//!    not cleared: a pallet seen beside the carried rack stays on the map when the rack
+//!    comes within the ring of it (the controller must see it to keep off it; clearing
+//!    it there let a backed-off band swing the rack into it).
 //! 3. **Mark.** Every return whose world height is within the band and which is in none of
 //!    those rectangles marks its cell `OCCUPIED_DETECTED` (static cells stay static).
 //! 4. **Settle.** Steps 1 and 2 only *flag* cells (an internal value that never leaves
@@ -100,16 +104,33 @@ struct Zone {
     cy: f32,
     c: f32,
     s: f32,
+    /// Half extents grown by the ignore margin: no return inside marks a cell.
     hl: f32,
     hw: f32,
+    /// Half extents within which earlier detections are forgotten: the body itself for
+    /// the robot and its carried rack, whose margin ring must keep what was seen there
+    /// (an obstacle next to the body is exactly what must not vanish); the grown
+    /// rectangle for a body the supervisor ignores (the rack being approached).
+    clear_hl: f32,
+    clear_hw: f32,
 }
 
 impl Zone {
     #[inline(always)]
     fn contains(&self, gx: f32, gy: f32) -> bool {
+        self.within(gx, gy, self.hl, self.hw)
+    }
+
+    #[inline(always)]
+    fn clears(&self, gx: f32, gy: f32) -> bool {
+        self.within(gx, gy, self.clear_hl, self.clear_hw)
+    }
+
+    #[inline(always)]
+    fn within(&self, gx: f32, gy: f32, hl: f32, hw: f32) -> bool {
         let dx = gx - self.cx;
         let dy = gy - self.cy;
-        (self.c * dx + self.s * dy).abs() <= self.hl && (self.c * dy - self.s * dx).abs() <= self.hw
+        (self.c * dx + self.s * dy).abs() <= hl && (self.c * dy - self.s * dx).abs() <= hw
     }
 }
 
@@ -208,13 +229,14 @@ impl ObstacleLayer {
     ) -> Result<usize, MapError> {
         let margin = self.cfg.ignore_margin;
         let mut n = 0;
-        let mut push = |pose: Pose2, fp: Footprint| -> Result<(), MapError> {
+        let mut push = |pose: Pose2, fp: Footprint, body: bool| -> Result<(), MapError> {
             if !(pose.is_finite() && fp.length.is_finite() && fp.width.is_finite()) {
                 return Err(MapError::NotFinite {
                     what: "ignore zone",
                 });
             }
             let (s, c) = pose.theta.sin_cos();
+            let clear = if body { 0.0 } else { margin };
             out[n] = Zone {
                 cx: ((pose.x - f.origin_x) * f.inv_res) as f32,
                 cy: ((pose.y - f.origin_y) * f.inv_res) as f32,
@@ -222,16 +244,18 @@ impl ObstacleLayer {
                 s: s as f32,
                 hl: ((0.5 * fp.length.max(0.0) + margin) * f.inv_res) as f32,
                 hw: ((0.5 * fp.width.max(0.0) + margin) * f.inv_res) as f32,
+                clear_hl: ((0.5 * fp.length.max(0.0) + clear) * f.inv_res) as f32,
+                clear_hw: ((0.5 * fp.width.max(0.0) + clear) * f.inv_res) as f32,
             };
             n += 1;
             Ok(())
         };
-        push(scan.robot, scan.robot_footprint)?;
+        push(scan.robot, scan.robot_footprint, true)?;
         if let Some(z) = scan.carried {
-            push(scan.robot.compose(&z.pose), z.footprint)?;
+            push(scan.robot.compose(&z.pose), z.footprint, true)?;
         }
         for z in scan.ignore {
-            push(z.pose, z.footprint)?;
+            push(z.pose, z.footprint, false)?;
         }
         Ok(n)
     }
@@ -338,7 +362,7 @@ impl ObstacleLayer {
     }
 }
 
-/// Flags detected cells whose centre lies in any zone.
+/// Flags detected cells whose centre lies in any zone's clearing extents.
 fn clear_zones(grid: &mut GridMap, zones: &[Zone], flagged: &mut Flagged) {
     let (w, h) = (grid.width, grid.height);
     for z in zones {
@@ -355,7 +379,7 @@ fn clear_zones(grid: &mut GridMap, zones: &[Zone], flagged: &mut Flagged) {
         for iy in y0 as usize..y1 as usize {
             for ix in x0 as usize..x1 as usize {
                 let i = iy * w + ix;
-                if z.contains(ix as f32 + 0.5, iy as f32 + 0.5) {
+                if z.clears(ix as f32 + 0.5, iy as f32 + 0.5) {
                     flagged.flag(&mut grid.cells, i);
                 }
             }
@@ -632,6 +656,49 @@ mod tests {
         g.set(g.view().cell_of(robot.x + 0.3, robot.y), OCCUPIED_DETECTED);
         l.update(&mut g, &scan).unwrap();
         assert_eq!(detected(&g), 0);
+    }
+
+    /// What a scan forgets without seeing through it: the cells under the robot and its
+    /// rack, and the grown rectangle of a rack being approached; not the margin ring of
+    /// the robot and its rack, where an obstacle just seen beside them stays.
+    #[test]
+    fn the_ring_beside_the_carried_rack_keeps_its_detections() {
+        let l = layer();
+        let mut g = grid();
+        let robot = Pose2::new(2.0, 5.0, 0.0);
+        // The rack's edge at x = 2.44: cell [2.4, 2.5) has its centre 0.01 m beyond it,
+        // within the ignore margin; [2.3, 2.4) lies under the rack. The same for a rack
+        // being approached at x = 8.
+        let at = |x: f64| g.view().cell_of(x, robot.y);
+        let (ring, under, approached) = (at(2.47), at(2.37), at(8.47));
+        for c in [ring, under, approached] {
+            g.set(c, OCCUPIED_DETECTED);
+        }
+        let cloud = vec![[f32::NAN; 3]; 31 * 1201];
+        let zone = [IgnoreZone {
+            pose: Pose2::new(8.0, 5.0, 0.0),
+            footprint: RACK,
+        }];
+        let mut scan = scan_of(&cloud, robot, &zone);
+        scan.carried = Some(IgnoreZone {
+            pose: Pose2::default(),
+            footprint: RACK,
+        });
+        let frame = GridFrame::new(&g, &scan.sensor);
+        let mut zones = [Zone::default(); MAX_ZONES];
+        let n = l.zones(&scan, &frame, &mut zones).unwrap();
+        let mut flagged = Flagged::NONE;
+        clear_zones(&mut g, &zones[..n], &mut flagged);
+        assert_eq!(g.view().get(ring), Some(OCCUPIED_DETECTED));
+        assert_eq!(g.view().get(under), Some(PENDING_CLEAR));
+        assert_eq!(g.view().get(approached), Some(PENDING_CLEAR));
+        // And a return in the ring still marks nothing (range noise on the rack's edges).
+        let grid_units = |v: f64, o: f64| ((v - o) * frame.inv_res) as f32;
+        let (gx, gy) = (
+            grid_units(2.47, frame.origin_x),
+            grid_units(robot.y, frame.origin_y),
+        );
+        assert!(zones[1].contains(gx, gy) && !zones[1].clears(gx, gy));
     }
 
     #[test]
