@@ -402,6 +402,34 @@ fn geometry_of(dm: &DistanceMap) -> [u64; 5] {
     ]
 }
 
+/// The eight neighbour offsets (wrapping) and their step costs in a padded grid of row
+/// stride `st` (the repairs walk them; the search unrolls them).
+fn neighbour_steps(st: usize) -> [(usize, u32); 8] {
+    [
+        (1, SIDE),
+        (usize::MAX, SIDE),
+        (st, SIDE),
+        (st.wrapping_neg(), SIDE),
+        (st + 1, DIAG),
+        (st - 1, DIAG),
+        ((st - 1).wrapping_neg(), DIAG),
+        ((st + 1).wrapping_neg(), DIAG),
+    ]
+}
+
+impl GridHeuristic {
+    /// The least distance of cell `i` through its closed neighbours, if it has any.
+    fn through_closed(&self, i: usize, steps: &[(usize, u32); 8]) -> Option<u32> {
+        steps
+            .iter()
+            .filter_map(|&(d, w)| {
+                let n = i.wrapping_add(d);
+                self.closed[n].then(|| self.g[n] + w)
+            })
+            .min()
+    }
+}
+
 /// Octile distance (in steps of 5 and 7) from padded cell `i` (row stride `stride`) to
 /// `target`; 0 without one.
 #[inline]

@@ -24,7 +24,7 @@
 //! towards the new request's start (the closed distances are exact whatever consistent
 //! estimate ordered them). Knows nothing of the planner.
 
-use super::{BLOCKED, DIAG, FORGOTTEN, GridHeuristic, SIDE, UNKNOWN, UNREACHED, octile};
+use super::{BLOCKED, FORGOTTEN, GridHeuristic, UNKNOWN, UNREACHED, neighbour_steps, octile};
 use crate::distance_map::DistanceMap;
 use std::cmp::Reverse;
 
@@ -32,21 +32,6 @@ use std::cmp::Reverse;
 #[inline]
 fn reached(g: u32) -> bool {
     g != BLOCKED && g < FORGOTTEN
-}
-
-/// The eight neighbour offsets (wrapping) and their step costs in a grid of row stride
-/// `st`.
-fn steps(st: usize) -> [(usize, u32); 8] {
-    [
-        (1, SIDE),
-        (usize::MAX, SIDE),
-        (st, SIDE),
-        (st.wrapping_neg(), SIDE),
-        (st + 1, DIAG),
-        (st - 1, DIAG),
-        ((st - 1).wrapping_neg(), DIAG),
-        ((st + 1).wrapping_neg(), DIAG),
-    ]
 }
 
 impl GridHeuristic {
@@ -78,7 +63,7 @@ impl GridHeuristic {
 
     /// The repair for newly blocked cells (see the module).
     fn lengthen(&mut self) {
-        let steps = steps(self.stride);
+        let steps = neighbour_steps(self.stride);
         self.repair_heap.clear();
         self.affected.clear();
         for k in 0..self.redecided.len() {
@@ -129,14 +114,7 @@ impl GridHeuristic {
         }
         for k in 0..self.affected.len() {
             let a = self.affected[k] as usize;
-            let mut best = u32::MAX;
-            for &(d, w) in &steps {
-                let u = a.wrapping_add(d);
-                if self.closed[u] {
-                    best = best.min(self.g[u] + w);
-                }
-            }
-            if best != u32::MAX {
+            if let Some(best) = self.through_closed(a, &steps) {
                 self.g[a] = best;
                 let f = best + octile(self.target, self.stride, a);
                 self.deferred
@@ -166,7 +144,7 @@ impl GridHeuristic {
 
     /// The repair for newly freed cells (see the module).
     fn shorten(&mut self, dm: &DistanceMap) {
-        let steps = steps(self.stride);
+        let steps = neighbour_steps(self.stride);
         let level = self.level;
         self.repair_heap.clear();
         for k in 0..self.redecided.len() {

@@ -15,7 +15,9 @@
 //! the cells whose distance it alters (`incremental.rs`); the cut is for changes that
 //! block and free at once. Knows nothing of the planner.
 
-use super::{BLOCKED, FORGOTTEN, GridHeuristic, UNKNOWN, UNREACHED, geometry_of, octile};
+use super::{
+    BLOCKED, FORGOTTEN, GridHeuristic, UNKNOWN, UNREACHED, geometry_of, neighbour_steps, octile,
+};
 use crate::distance_map::DistanceMap;
 use std::cmp::Reverse;
 
@@ -154,27 +156,10 @@ impl GridHeuristic {
     /// Before the change each closed cell's neighbours were reached or blocked, so those
     /// cells are among the ones just forgotten or freed (`reopened`).
     fn reopen_frontier(&mut self, dm: &DistanceMap) {
-        let st = self.stride;
-        let steps = [
-            (1, SIDE_STEP),
-            (usize::MAX, SIDE_STEP),
-            (st, SIDE_STEP),
-            (st.wrapping_neg(), SIDE_STEP),
-            (st + 1, DIAG_STEP),
-            (st - 1, DIAG_STEP),
-            ((st - 1).wrapping_neg(), DIAG_STEP),
-            ((st + 1).wrapping_neg(), DIAG_STEP),
-        ];
+        let steps = neighbour_steps(self.stride);
         for k in 0..self.reopened.len() {
             let r = self.reopened[k] as usize;
-            let mut best = u32::MAX;
-            for &(d, w) in &steps {
-                let n = r.wrapping_add(d);
-                if self.closed[n] {
-                    best = best.min(self.g[n] + w);
-                }
-            }
-            if best != u32::MAX {
+            if let Some(best) = self.through_closed(r, &steps) {
                 self.seed(dm, r, best);
             }
         }
@@ -199,5 +184,3 @@ impl GridHeuristic {
             .push(Reverse((f, ((n as u64) << 32) | u64::from(nd))));
     }
 }
-
-use super::{DIAG as DIAG_STEP, SIDE as SIDE_STEP};

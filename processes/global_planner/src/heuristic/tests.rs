@@ -226,15 +226,8 @@ fn a_repaired_search_answers_as_a_flood_of_the_changed_map() {
         repaired += usize::from(round > 0 && lazy.settled > 0);
         // Cut back where the change reached, not emptied.
         cut += usize::from(round > 0 && lazy.settled > 0 && lazy.settled < before);
-        for (x, y) in std::iter::once(start).chain((0..400).map(|_| point(next(100_000)))) {
-            let a = whole.metres(&dm, x, y);
-            assert_eq!(
-                a.map(f64::to_bits),
-                lazy.metres(&dm, x, y).map(f64::to_bits),
-                "round {round}"
-            );
-            compared += 1;
-        }
+        let points = std::iter::once(start).chain((0..400).map(|_| point(next(100_000))));
+        compared += same_answers(&mut whole, &mut lazy, &dm, points, round);
         if round % 4 == 3 {
             lazy.complete(&dm);
             assert_eq!(lazy.settled, reachable, "round {round}");
@@ -315,15 +308,8 @@ fn an_in_place_repair_answers_as_a_flood_of_the_changed_map() {
             continue;
         }
         assert!(ok, "round {round}");
-        for (x, y) in std::iter::once(start).chain((0..300).map(|_| point(next(100_000)))) {
-            let a = whole.metres(&dm, x, y);
-            assert_eq!(
-                a.map(f64::to_bits),
-                lazy.metres(&dm, x, y).map(f64::to_bits),
-                "round {round}"
-            );
-            compared += 1;
-        }
+        let points = std::iter::once(start).chain((0..300).map(|_| point(next(100_000))));
+        compared += same_answers(&mut whole, &mut lazy, &dm, points, round);
         if round % 7 == 6 {
             lazy.complete(&dm);
             assert_eq!(lazy.settled, reachable, "round {round}");
@@ -334,4 +320,25 @@ fn an_in_place_repair_answers_as_a_flood_of_the_changed_map() {
         "{} {compared}",
         lazy.in_place
     );
+}
+
+/// Asserts that `lazy` answers every point as `whole` does, bit for bit (round `round`);
+/// how many it compared.
+fn same_answers(
+    whole: &mut GridHeuristic,
+    lazy: &mut GridHeuristic,
+    dm: &DistanceMap,
+    points: impl Iterator<Item = (f64, f64)>,
+    round: usize,
+) -> usize {
+    let mut compared = 0;
+    for (x, y) in points {
+        assert_eq!(
+            whole.metres(dm, x, y).map(f64::to_bits),
+            lazy.metres(dm, x, y).map(f64::to_bits),
+            "round {round}"
+        );
+        compared += 1;
+    }
+    compared
 }
