@@ -170,8 +170,19 @@ impl RayClearing {
         across <= self.radius && along >= r.ra && along <= r.rb - beyond
     }
 
-    /// Flags every detected cell of `cells` (`w` x `h`, row-major) that a ray clears.
+    /// Flags every detected cell of `cells` (`w` x `h`, row-major) that a ray clears,
+    /// except the corners of surfaces that stay (`keep_corners`).
     pub fn apply(&self, cells: &mut [u8], w: usize, h: usize, flagged: &mut Flagged) {
+        let mut mine = Flagged::NONE;
+        self.flag_crossed(cells, w, h, &mut mine);
+        if mine.lo <= mine.hi {
+            keep_corners(cells, w, h, &mine);
+            flagged.lo = flagged.lo.min(mine.lo);
+            flagged.hi = flagged.hi.max(mine.hi);
+        }
+    }
+
+    fn flag_crossed(&self, cells: &mut [u8], w: usize, h: usize, flagged: &mut Flagged) {
         if w == 0 || h == 0 || self.bbox[0] > self.bbox[2] {
             return;
         }
@@ -235,6 +246,28 @@ impl RayClearing {
             self.passes_through(ray, ix as i64, iy as i64, p)
                 && !runs_along(cells, (w, h), (ix, iy), (ray.ux, ray.uy))
         })
+    }
+}
+
+/// Turns flagged cells back into detections where they are the corner of a surface
+/// that stays: a detected (or static) cell beside them in their row and one in their
+/// column, neither cleared by this scan. A box's corner fills only part of its cell,
+/// so a ray through the cell's middle can pass the corner without touching it; it says
+/// nothing about the part the box fills. A box that has gone loses its faces to the
+/// rays that cross them, and its corners with them or after them.
+fn keep_corners(cells: &mut [u8], w: usize, h: usize, range: &Flagged) {
+    let stays = |c: u8| c != aisle_geometry::FREE && c != PENDING_CLEAR;
+    for i in range.lo..=range.hi {
+        if cells[i] != PENDING_CLEAR {
+            continue;
+        }
+        let (ix, iy) = (i % w, i / w);
+        let beside_in_row = (ix > 0 && stays(cells[i - 1])) || (ix + 1 < w && stays(cells[i + 1]));
+        let beside_in_column =
+            (iy > 0 && stays(cells[i - w])) || (iy + 1 < h && stays(cells[i + w]));
+        if beside_in_row && beside_in_column {
+            cells[i] = OCCUPIED_DETECTED;
+        }
     }
 }
 
@@ -397,6 +430,42 @@ mod tests {
         rc.set(0, (0.5, 12.65), 0.0, 1.0, false);
         rc.apply(&mut cells, w, h, &mut f);
         assert_eq!(cells.iter().filter(|&&c| c == PENDING_CLEAR).count(), 1);
+    }
+
+    /// A ray through the middle of a box's corner cell, past the corner, leaves the
+    /// corner while the box's faces stay; once the faces are crossed too, it goes.
+    #[test]
+    fn a_corner_stays_while_its_faces_do() {
+        // A box's south-west corner in cell (5, 5): faces along row 5 and column 5.
+        let (w, h) = (12usize, 12usize);
+        let mut cells = vec![0u8; w * h];
+        for k in 5..9 {
+            cells[5 * w + k] = OCCUPIED_DETECTED;
+            cells[k * w + 5] = OCCUPIED_DETECTED;
+        }
+        let corner = 5 * w + 5;
+        // North-west to south-east through the corner cell's middle: 45 degrees off
+        // both faces, so it runs along neither.
+        let mut rc = RayClearing::new(1);
+        rc.begin((0.5, 10.5), 0.1);
+        rc.set(0, (10.5, 0.5), 0.0, 1.0, false);
+        let mut f = Flagged::NONE;
+        rc.apply(&mut cells, w, h, &mut f);
+        assert_eq!(cells[corner], OCCUPIED_DETECTED);
+        assert!(!cells.contains(&PENDING_CLEAR));
+        // The box gone: from the south-west, rays through the corner's middle and
+        // through the middles of its faces' first cells, (6, 5) and (5, 6), crossing
+        // them. The corner goes with its faces.
+        let mut rc = RayClearing::new(3);
+        rc.begin((0.5, 0.5), 0.1);
+        rc.set(0, (11.5, 11.5), 0.0, 1.0, false);
+        rc.set(1, (12.5, 10.5), 0.0, 1.0, false);
+        rc.set(2, (10.5, 12.5), 0.0, 1.0, false);
+        let mut f = Flagged::NONE;
+        rc.apply(&mut cells, w, h, &mut f);
+        assert_eq!(cells[corner], PENDING_CLEAR);
+        assert_eq!(cells[5 * w + 6], PENDING_CLEAR);
+        assert_eq!(cells[6 * w + 5], PENDING_CLEAR);
     }
 
     #[test]

@@ -23,6 +23,7 @@
 
 mod band;
 pub mod case;
+mod caution;
 mod clearance;
 mod config;
 mod conic;
@@ -52,8 +53,8 @@ mod tests;
 
 pub use band::Band;
 pub use config::{
-    BandConfig, HomotopyConfig, LimitsConfig, SolverConfig, StraightConfig, TebConfig,
-    WeightsConfig,
+    BandConfig, CautionConfig, HomotopyConfig, LimitsConfig, SolverConfig, StraightConfig,
+    TebConfig, WeightsConfig,
 };
 pub use controller::{Snapshot, TebController};
 pub use error::TebError;

@@ -10,8 +10,13 @@ use super::config::{LegSpec, MissionConfig};
 use super::events::{Action, ControllerReport, DockBody, LegResult, PlanFailure, Planned};
 use aisle_geometry::{Footprint, PathPose, Pose2};
 
-/// The smallest fraction of the margin a backing-off plan keeps (two halvings).
-const MIN_MARGIN_SCALE: f64 = 0.25;
+/// The smallest fraction of the margin a backing-off plan keeps (a halving, then 3/8).
+/// It bounds how close a reduced-margin plan takes the robot to what its lidar saw,
+/// and what the lidar saw is not all there is: an EUR pallet's 0.144 m base, below the
+/// lowest ray, sticks out 0.1 m beyond its load. A quarter of the carrying margin
+/// (0.1 m) let a sweep's robot carry its rack into such a base past the stack it had
+/// seen; 3/8 keeps 0.15 m, the overhang and half a map cell.
+const MIN_MARGIN_SCALE: f64 = 0.375;
 /// The smallest margin, m, a backing-off plan keeps.
 const MIN_BACKED_OFF_MARGIN: f64 = 0.05;
 
