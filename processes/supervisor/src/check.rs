@@ -196,7 +196,6 @@ pub fn load_mission(
         dock: open_side::params(&ground.planner),
     };
     placement::check_mission(&mission, path, &g).map_err(|e| e.to_string())?;
-    reaction_covers_period(&ground.teb, &files.teb, mission.controller_period_s, path)?;
     let mount = ground
         .model
         .mount_in_base(&ground.robot.lidar_mount)
@@ -220,49 +219,9 @@ pub fn load_mission(
     Ok(mission)
 }
 
-/// A band inside its margin is slowed to what the robot can stop from within the
-/// clearance it keeps, counting `caution.reaction_time` before the brakes: shorter
-/// than the controller's period, the robot would meet what a scan shows before a
-/// command could react to it.
-fn reaction_covers_period(
-    teb: &aisle_teb_controller::TebConfig,
-    teb_path: &Path,
-    period_s: f64,
-    mission_path: &Path,
-) -> Result<(), String> {
-    let reaction = teb.caution.reaction_time;
-    if reaction < period_s {
-        return Err(format!(
-            "{}: caution.reaction_time = {reaction} s is shorter than the controller's \
-             period ({}: controller_period_s = {period_s} s); a command reacts to a scan \
-             up to one period later",
-            teb_path.display(),
-            mission_path.display()
-        ));
-    }
-    Ok(())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn the_caution_reaction_time_covers_the_controller_period() {
-        let mut teb = aisle_teb_controller::TebConfig::default();
-        let (t, m) = (Path::new("c/teb.toml"), Path::new("c/mission.toml"));
-        assert!(reaction_covers_period(&teb, t, 0.5, m).is_ok());
-        teb.caution.reaction_time = 0.25;
-        let e = reaction_covers_period(&teb, t, 0.5, m).unwrap_err();
-        assert!(
-            e.starts_with("c/teb.toml: caution.reaction_time = 0.25 s"),
-            "{e}"
-        );
-        assert!(
-            e.contains("c/mission.toml: controller_period_s = 0.5 s"),
-            "{e}"
-        );
-    }
 
     fn shipped() -> PathBuf {
         aisle_config::testing::shipped_dir()

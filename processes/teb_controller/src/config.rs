@@ -236,29 +236,6 @@ impl Default for StraightConfig {
     }
 }
 
-/// How fast a band that comes within 0.9 x its margin of an obstacle is driven
-/// (`caution.rs`): each such segment no faster than lets the footprint's fastest point
-/// stop within the clearance it keeps.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct CautionConfig {
-    /// Seconds from an obstacle entering the map to the command that reacts to it: the
-    /// controller's period (`mission.toml` `controller_period_s`), at least.
-    pub reaction_time: f64,
-    /// Speed of the footprint's fastest point that is always allowed, m/s, so a band
-    /// touching its margin still moves.
-    pub min_speed: f64,
-}
-
-impl Default for CautionConfig {
-    fn default() -> Self {
-        Self {
-            reaction_time: 0.5,
-            min_speed: 0.05,
-        }
-    }
-}
-
 /// Everything in `config/teb.toml`.
 #[derive(Debug, Clone, PartialEq, Deserialize, Default)]
 #[serde(deny_unknown_fields, default)]
@@ -270,7 +247,6 @@ pub struct TebConfig {
     pub homotopy: HomotopyConfig,
     pub inputs: InputsConfig,
     pub straight: StraightConfig,
-    pub caution: CautionConfig,
 }
 
 fn bad(key: &str, reason: impl Into<String>) -> InvalidKey {
@@ -364,8 +340,6 @@ impl Validate for TebConfig {
         if !(h.hysteresis.is_finite() && h.hysteresis > 0.0 && h.hysteresis <= 1.0) {
             return Err(bad("homotopy.hysteresis", "must lie in (0, 1]"));
         }
-        non_negative("caution.reaction_time", self.caution.reaction_time)?;
-        positive("caution.min_speed", self.caution.min_speed)?;
         self.validate_straight()
     }
 }

@@ -12,7 +12,6 @@ use aisle_geometry::{GridView, Pose2, wrap_angle};
 use serde::{Deserialize, Serialize};
 
 use crate::band::Band;
-use crate::caution::{self, Caution};
 use crate::config::TebConfig;
 use crate::detour::Side;
 use crate::feasibility;
@@ -44,8 +43,6 @@ pub struct TebController {
     active: Option<Active>,
     planner: Planner,
     out: StepOutput,
-    /// The least clearance along each segment of the band, from its check.
-    clearances: Vec<f64>,
 }
 
 fn check_map(map: &GridView) -> Result<(), String> {
@@ -94,7 +91,6 @@ impl TebController {
             cfg,
             active: None,
             planner: Planner::new(n),
-            clearances: Vec::with_capacity(n + 2),
             out: StepOutput {
                 commands: Vec::with_capacity(MAX_COMMANDS),
                 poses: Vec::with_capacity(MAX_COMMANDS),
@@ -250,26 +246,18 @@ impl TebController {
             .try_other_side(&problem, &leg, &pose, &mut done);
         self.planner.finish(&problem);
 
-        // Judge it, slow down what is inside the margin, and write the output.
+        // Judge it and write the output.
+        let band = &self.planner.band;
         let cfg = &self.cfg;
         let verdict = feasibility::check(
-            &self.planner.band,
+            band,
             map,
             &problem.footprint,
             problem.margin,
             cfg.solver.check_step,
             cfg.limits.min_turning_radius,
             &problem.timing(),
-            &mut self.clearances,
         );
-        if verdict.flag == ExitFlag::MarginViolated {
-            caution::slow_down(
-                &mut self.planner.band,
-                &self.clearances,
-                &caution_of(cfg, &problem),
-            );
-        }
-        let band = &self.planner.band;
         let (_, violations) = objective::merit(&problem, band);
         let out = &mut self.out;
         out.iterations = done.iterations;
@@ -305,17 +293,6 @@ fn problem<'a>(
         section: leg.section,
         s_lo: leg.s_lo,
         s_hi: leg.s_hi,
-    }
-}
-
-/// How a band inside its margin is slowed down under this step's problem.
-fn caution_of(cfg: &TebConfig, problem: &Problem) -> Caution {
-    Caution {
-        reaction_time: cfg.caution.reaction_time,
-        deceleration: cfg.limits.max_acceleration,
-        min_speed: cfg.caution.min_speed,
-        reach: problem.footprint.circumscribed_radius(),
-        below: 0.9 * problem.margin,
     }
 }
 

@@ -63,8 +63,7 @@ pub(crate) struct Verdict {
 
 /// Checks the band. Pose 0 (the robot now) counts only for collision, since the
 /// robot cannot undo a margin it has already lost. `timing` holds the measured start
-/// velocity and the acceleration limits. `clearances` receives, unless the band
-/// collides, the least clearance (capped at the margin) along each segment.
+/// velocity and the acceleration limits.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn check(
     band: &Band,
@@ -74,9 +73,7 @@ pub(crate) fn check(
     step: f64,
     min_turning_radius: f64,
     timing: &Timing,
-    clearances: &mut Vec<f64>,
 ) -> Verdict {
-    clearances.clear();
     let n = band.poses.len();
     let mut v = Verdict {
         flag: ExitFlag::Valid,
@@ -101,7 +98,6 @@ pub(crate) fn check(
             .max((b.theta - a.theta).abs() / step)
             .ceil() as usize)
             .clamp(1, 1000);
-        clearances.push(margin);
         for j in 1..=pieces {
             let u = j as f64 / pieces as f64;
             let p = Pose2::new(
@@ -111,7 +107,6 @@ pub(crate) fn check(
             );
             let d = min_clearance(map, footprint, &p, margin);
             v.min_clearance = v.min_clearance.min(d);
-            clearances[k] = clearances[k].min(d);
             if d < 0.0 {
                 v.flag = ExitFlag::Collision;
                 v.last_feasible_index = k;
@@ -178,18 +173,17 @@ mod tests {
             max_acceleration: 2.4,
             max_angular_acceleration: 4.8,
         };
-        let judge = |t: &Timing| check(&band, &map.view(), &fp, 0.1, 0.05, 0.0, t, &mut Vec::new());
-        let verdict = judge(&timing);
+        let verdict = check(&band, &map.view(), &fp, 0.1, 0.05, 0.0, &timing);
         assert_eq!(verdict.flag, ExitFlag::AccelerationExceeded);
         assert_eq!(verdict.last_feasible_index, 2);
         // The same band under a 6 m/s^2 limit is valid.
         timing.max_acceleration = 6.0;
-        let verdict = judge(&timing);
+        let verdict = check(&band, &map.view(), &fp, 0.1, 0.05, 0.0, &timing);
         assert_eq!(verdict.flag, ExitFlag::Valid);
         // Starting from rest into 2 m/s over 0.3 s (6.7 m/s^2) is flagged at segment 0.
         timing.max_acceleration = 2.4;
         timing.v0 = 0.0;
-        let verdict = judge(&timing);
+        let verdict = check(&band, &map.view(), &fp, 0.1, 0.05, 0.0, &timing);
         assert_eq!(verdict.flag, ExitFlag::AccelerationExceeded);
         assert_eq!(verdict.last_feasible_index, 0);
         assert_eq!(verdict.flag.code(), 6);

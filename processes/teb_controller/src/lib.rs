@@ -23,7 +23,6 @@
 
 mod band;
 pub mod case;
-mod caution;
 mod clearance;
 mod config;
 mod conic;
@@ -53,8 +52,8 @@ mod tests;
 
 pub use band::Band;
 pub use config::{
-    BandConfig, CautionConfig, HomotopyConfig, LimitsConfig, SolverConfig, StraightConfig,
-    TebConfig, WeightsConfig,
+    BandConfig, HomotopyConfig, LimitsConfig, SolverConfig, StraightConfig, TebConfig,
+    WeightsConfig,
 };
 pub use controller::{Snapshot, TebController};
 pub use error::TebError;

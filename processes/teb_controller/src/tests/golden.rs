@@ -388,8 +388,7 @@ const RECORDED: &[(&str, u64)] = &[
     ("rack_2.5m_aisle", 0xbd4f6d09e0caf615),
     ("curve_r3", 0xdd00055698141376),
     ("loop_box_on_path", 0x6a5d446b7035a573),
-    // Changed by caution.rs: one step of this loop enters its margin and is slowed.
-    ("loop_homotopy_pallet", 0x97293fe0741d21f9),
+    ("loop_homotopy_pallet", 0x6224a0d5436206ee),
     ("loop_rack_aisle", 0xc4b088ea999720c4),
     ("loop_rotate", 0xeee9f3c595d83e8d),
     ("loop_cusp", 0x6691766d13afa0eb),
