@@ -202,7 +202,7 @@ impl Mission {
         // Backing off never goes below MIN_BACKED_OFF_MARGIN: the controller's grid
         // (0.1 m cells) and soft constraints need some room (a sweep measured contacts
         // with 0.025 m).
-        let scaled = |m: f64| (m * self.margin_scale).max(backoff::least_margin(m));
+        let scaled = |m: f64| backoff::scaled_margin(m, self.margin_scale);
         if self.carrying {
             let margin = scaled(self.footprints.carrying_margin);
             (self.carrying_footprint(), margin)

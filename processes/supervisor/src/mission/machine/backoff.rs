@@ -19,11 +19,18 @@ use aisle_geometry::Pose2;
 const RESTORE_MARGIN_AFTER_M: f64 = 1.0;
 
 /// The least margin backing off ever plans with when the leg's margin is `m` (what the
-/// mission check holds a goal to), to the micrometre (3/8 of 0.4 is
-/// 0.15000000000000002 in binary, and messages show it).
+/// mission check holds a goal to).
 pub fn least_margin(m: f64) -> f64 {
-    let least = (m * super::MIN_MARGIN_SCALE).max(m.min(super::MIN_BACKED_OFF_MARGIN));
-    (least * 1e6).round() / 1e6
+    scaled_margin(m, super::MIN_MARGIN_SCALE)
+}
+
+/// The margin a plan keeps when the leg's margin `m` is scaled by `scale` while backing
+/// off: never below `MIN_BACKED_OFF_MARGIN` (or `m` itself, if smaller), to the
+/// micrometre, so that the planner gets the very margin `check` holds goals to and
+/// messages show (3/8 of 0.4 is 0.15000000000000002 in binary).
+pub(super) fn scaled_margin(m: f64, scale: f64) -> f64 {
+    let margin = (m * scale.max(super::MIN_MARGIN_SCALE)).max(m.min(super::MIN_BACKED_OFF_MARGIN));
+    (margin * 1e6).round() / 1e6
 }
 
 impl Mission {
