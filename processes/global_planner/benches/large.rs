@@ -5,7 +5,7 @@
 //! repeats the request on one planner; "changed" alternately adds and removes a small
 //! detection (0.3 x 0.3 m) beside the path halfway along, so every request follows a
 //! map change. Each runs with the planner settings `config/large` ships (weighted A*,
-//! `large/...`) and with the defaults (plain A*, `large_plain/...`) for comparison.
+//! `large/...`) and with plain A* (weight 1, `large_plain/...`) for comparison.
 
 use aisle_geometry::{CellIndex, GridMap, OCCUPIED_STATIC};
 use aisle_global_planner::large_map::{crossing, params, planner_config, static_map};
@@ -28,14 +28,11 @@ fn large(c: &mut Criterion) {
     }
     let shipped = planner_config().expect("config/large/planner.toml loads");
     cases(c, "large", &shipped, &req, &map, &detected);
-    cases(
-        c,
-        "large_plain",
-        &PlannerConfig::default(),
-        &req,
-        &map,
-        &detected,
-    );
+    let plain = PlannerConfig {
+        heuristic_weight: 1.0,
+        ..PlannerConfig::default()
+    };
+    cases(c, "large_plain", &plain, &req, &map, &detected);
 }
 
 fn cases(

@@ -94,7 +94,11 @@ pub struct PlannerConfig {
     /// costs at most this factor over the best the search could find, and far fewer
     /// nodes are expanded where many paths cost nearly the same (the open floor of a
     /// large hall, where the plain search expands every heading of every cell whose
-    /// detour fits in the final path's slack). 1: plain A*.
+    /// detour fits in the final path's slack). 1: plain A*. The default, 1.05, is for
+    /// corridors: a path down an aisle can shift sideways and turn a few degrees for a
+    /// fraction of a percent of its cost, and plain A* expands every such variant (the
+    /// seed's carrying leg: 4,930 expansions, 14 ms; at 1.05, 125 and 1.4 ms, the same
+    /// way 0.4 % longer).
     pub heuristic_weight: f64,
 }
 
@@ -127,7 +131,7 @@ impl Default for PlannerConfig {
             dock_run_in: 0.5,
             dock_clearance: 0.03,
             start_relief_radius: 0.5,
-            heuristic_weight: 1.0,
+            heuristic_weight: 1.05,
         }
     }
 }

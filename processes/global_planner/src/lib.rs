@@ -52,6 +52,7 @@ pub mod reeds_shepp;
 mod relief;
 mod sampling;
 mod search;
+mod search_buffers;
 mod search_core;
 pub mod seed_map;
 mod smooth;

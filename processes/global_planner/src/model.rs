@@ -38,9 +38,12 @@ pub(crate) struct Model {
     pub radius: f64,
     pub bins: u32,
     pub bin_width: f64,
+    /// The primitives: `regular` of them for every node, then the short straight
+    /// moves that only a start inside the margin gets (`search_core.rs`, `expand`).
     pub prims: Vec<Motion>,
     pub prim_cost: Vec<f64>,
     pub prim_dir: Vec<i8>,
+    pub regular: usize,
     forward_cost: f64,
     reverse_cost: f64,
     switch_cost: f64,
@@ -56,9 +59,8 @@ impl Model {
         let radius = cfg.min_turning_radius;
         let bin_width = TAU / f64::from(cfg.heading_bins);
         // Every primitive must leave its search cell: at least one cell diagonal.
-        let min_len = cfg
-            .primitive_length
-            .max(1.05 * std::f64::consts::SQRT_2 * cfg.search_resolution);
+        let leave = 1.05 * std::f64::consts::SQRT_2 * cfg.search_resolution;
+        let min_len = cfg.primitive_length.max(leave);
         let k = (min_len / (radius * bin_width)).ceil().max(1.0);
         let length = k * radius * bin_width;
         let mut m = Self {
@@ -68,6 +70,7 @@ impl Model {
             prims: Vec::new(),
             prim_cost: Vec::new(),
             prim_dir: Vec::new(),
+            regular: 0,
             forward_cost: cfg.forward_cost,
             reverse_cost: cfg.reverse_cost,
             switch_cost: cfg.direction_switch_cost,
@@ -95,6 +98,22 @@ impl Model {
                 };
                 m.prim_cost.push(m.motion_cost(&motion));
                 m.prim_dir.push(DIR_ROT);
+                m.prims.push(motion);
+            }
+        }
+        m.regular = m.prims.len();
+        // A robot standing inside the margin between two obstacles may have no room for
+        // a whole primitive either way (a 0.26 m move reaches one or the other) where a
+        // shorter one takes it to where it can turn: the shortest move that still leaves
+        // its search cell, forwards and backwards.
+        if leave < cfg.primitive_length {
+            for sign in [1.0, -1.0] {
+                let motion = Motion::Drive {
+                    length: sign * leave,
+                    curvature: 0.0,
+                };
+                m.prim_cost.push(m.motion_cost(&motion));
+                m.prim_dir.push(if sign > 0.0 { DIR_FWD } else { DIR_REV });
                 m.prims.push(motion);
             }
         }
@@ -238,14 +257,17 @@ mod tests {
     fn primitives_land_on_whole_bins_and_cost_as_configured() {
         let cfg = PlannerConfig::default();
         let m = Model::new(&cfg);
-        assert_eq!(m.prims.len(), 8);
+        assert_eq!(m.regular, 8);
+        assert_eq!(m.prims.len(), 10);
         let o = Pose2::default();
-        for (p, c) in m.prims.iter().zip(&m.prim_cost) {
+        for (i, (p, c)) in m.prims.iter().zip(&m.prim_cost).enumerate() {
             let e = p.end(&o);
             let bins = e.theta / m.bin_width;
             assert!((bins - bins.round()).abs() < 1e-9);
             if let Motion::Drive { length, .. } = p {
-                assert!(length.abs() >= cfg.primitive_length);
+                // The regular ones as long as configured; the start's short ones leave
+                // their cell (next assertion).
+                assert_eq!(length.abs() >= cfg.primitive_length, i < m.regular);
                 assert!(e.distance(&o) > std::f64::consts::SQRT_2 * cfg.search_resolution);
                 let per_m = if *length < 0.0 { 3.0 } else { 1.0 };
                 assert!(*c >= per_m * length.abs() - 1e-12);

@@ -225,6 +225,12 @@ impl<'a> Clearance<'a> {
         self.for_motion(from, motion).pose_free(p)
     }
 
+    /// Whether the start stands inside the full margin (its motions keep the clearance
+    /// it has).
+    pub(crate) fn start_relieved(&self) -> bool {
+        self.start.is_some()
+    }
+
     /// The full-margin checker (its circumscribed radius sizes rotation steps).
     pub(crate) fn full_checker(&self) -> &FootprintChecker<'a> {
         &self.full

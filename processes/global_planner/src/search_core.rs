@@ -1,8 +1,8 @@
 //! The search core of Hybrid A*, apart from its planner (in the manner of Nav2 smac's
-//! `a_star.hpp` beside `smac_planner_hybrid.hpp`): nodes and the open list, the buffers
-//! kept between requests (the state table is sparse, `states.rs`), the expansion
-//! budget, and one request's [`Search`]
-//! (`next_node`, `close`, `shot_due`, `analytic_expansion`, `expand`) with its goal test.
+//! `a_star.hpp` beside `smac_planner_hybrid.hpp`): the search node, the expansion
+//! budget, and one request's [`Search`] (`next_node`, `close`, `shot_due`,
+//! `analytic_expansion`, `expand`) with its goal test and its cost bound. The open
+//! list's order and the buffers kept between requests are `search_buffers.rs`.
 //!
 //! Knows the motion model, the collision checks (`Clearance`) and the heuristic it is handed; knows
 //! nothing of requests, configuration files or the bus.
@@ -13,14 +13,11 @@ use crate::distance_map::DistanceMap;
 use crate::error::{PlanErrorKind, PlanStats};
 use crate::heuristic::GridHeuristic;
 use crate::model::{DIR_NONE, Model, Shot};
-use crate::motion::{Motion, pose_bits};
-use crate::reeds_shepp::Candidates;
+use crate::motion::pose_bits;
 use crate::relief::Clearance;
-use crate::sampling::{append_motion, finish};
-use crate::states::{NONE, SearchGrid, StateTable};
-use aisle_geometry::{PathPose, Pose2};
-use std::cmp::Ordering;
-use std::collections::BinaryHeap;
+use crate::search_buffers::{Buffers, OpenEntry};
+use crate::states::{NONE, SearchGrid};
+use aisle_geometry::Pose2;
 
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Node {
@@ -37,60 +34,6 @@ pub(crate) struct Node {
     pub(crate) dir: i8,
     pub(crate) closed: bool,
     pub(crate) h_full: bool,
-}
-
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct OpenEntry {
-    pub(crate) f: f64,
-    pub(crate) g: f64,
-    pub(crate) node: u32,
-}
-
-impl PartialEq for OpenEntry {
-    fn eq(&self, other: &Self) -> bool {
-        self.cmp(other) == Ordering::Equal
-    }
-}
-impl Eq for OpenEntry {}
-impl PartialOrd for OpenEntry {
-    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
-        Some(self.cmp(other))
-    }
-}
-impl Ord for OpenEntry {
-    /// Max-heap order: lowest f first, then the deeper node, then the older node.
-    fn cmp(&self, other: &Self) -> Ordering {
-        other
-            .f
-            .total_cmp(&self.f)
-            .then(self.g.total_cmp(&other.g))
-            .then(other.node.cmp(&self.node))
-    }
-}
-
-/// Buffers kept between requests so that planning does not allocate in steady state.
-#[derive(Debug, Default)]
-pub(crate) struct Buffers {
-    pub(crate) nodes: Vec<Node>,
-    pub(crate) state_node: StateTable,
-    pub(crate) open: BinaryHeap<OpenEntry>,
-    /// Under a cost bound: the open nodes whose heuristic the free-space part raised,
-    /// by `g + h_grid` (`Search::above_bound`).
-    pub(crate) raised: BinaryHeap<OpenEntry>,
-    pub(crate) rs: Candidates,
-    /// The pose (bits) `rs` holds the candidates from, to this request's goal: a node's
-    /// analytic expansion usually follows its free-space heuristic, which solved them.
-    pub(crate) rs_from: Option<[u64; 3]>,
-    pub(crate) shots: Vec<Shot>,
-    pub(crate) chain: Vec<u32>,
-    pub(crate) smooth_scratch: Vec<PathPose>,
-    /// The output path's stretches the smoothing kept, collision-checked already.
-    pub(crate) checked: Vec<std::ops::Range<usize>>,
-    pub(crate) raw: Vec<PathPose>,
-    /// For every pose of `raw`, the index in `traced` of the motion it lies on.
-    pub(crate) raw_motion: Vec<u32>,
-    /// The motions `raw` was sampled from, each with the pose it leaves from.
-    pub(crate) traced: Vec<(Pose2, Motion)>,
 }
 
 /// One request's search: what it reads (configuration, model, state numbering, distance
@@ -141,10 +84,26 @@ impl Search<'_> {
         should_stop: &mut dyn FnMut() -> bool,
     ) -> Result<(usize, Shot), PlanErrorKind> {
         let mut since_shot = 0u32;
+        // Whether a node was set aside for the bound: an empty open list then means
+        // that no path within the bound is left, not that there is none.
+        let mut beyond = false;
         loop {
-            let ni = self.next_node().ok_or(PlanErrorKind::NoPath)?;
-            if self.above_bound(ni) {
-                return Err(PlanErrorKind::AboveBound);
+            let Some(ni) = self.next_node() else {
+                return Err(if beyond {
+                    PlanErrorKind::AboveBound
+                } else {
+                    PlanErrorKind::NoPath
+                });
+            };
+            let n = &self.buf.nodes[ni];
+            if n.g + n.h_grid > self.bound {
+                if self.cfg.heuristic_weight != 1.0 {
+                    beyond = true;
+                    continue;
+                }
+                if self.all_above_bound() {
+                    return Err(PlanErrorKind::AboveBound);
+                }
             }
             self.close(ni, should_stop)?;
             let node = self.buf.nodes[ni];
@@ -185,7 +144,7 @@ impl Search<'_> {
                         g: n.g,
                         node: entry.node,
                     });
-                    if self.bound < f64::INFINITY {
+                    if self.bound < f64::INFINITY && self.cfg.heuristic_weight == 1.0 {
                         self.buf.raised.push(OpenEntry {
                             f: n.g + n.h_grid,
                             g: n.g,
@@ -199,17 +158,16 @@ impl Search<'_> {
         }
     }
 
-    /// Whether no open node can lead to a path within the bound. Every path still to be
-    /// found passes an open node and costs at least its `g + h_grid`. Nodes whose `h` is
-    /// still the grid part come off the open list in that order, so the popped one
-    /// stands for them; those raised by the free-space part (which, with turns on the
-    /// spot, is no lower bound) are kept apart by `g + h_grid` in `raised`.
+    /// Whether no open node can lead to a path within the bound, once the popped one
+    /// (above it) cannot. Every path still to be found passes an open node and costs at
+    /// least its `g + h_grid`. In plain A* nodes whose `h` is still the grid part come
+    /// off the open list in that order, so the popped one stands for them; those raised
+    /// by the free-space part (which, with turns on the spot, is no lower bound) are
+    /// kept apart by `g + h_grid` in `raised`. A weighted search orders by
+    /// `g + w h_grid`, which says nothing of `g + h_grid`: `run` sets each node above
+    /// the bound aside instead, until the open list is empty.
     #[inline]
-    fn above_bound(&mut self, ni: usize) -> bool {
-        let n = &self.buf.nodes[ni];
-        if n.g + n.h_grid <= self.bound {
-            return false;
-        }
+    fn all_above_bound(&mut self) -> bool {
         let nodes = &self.buf.nodes;
         while let Some(e) = self.buf.raised.peek() {
             let o = &nodes[e.node as usize];
@@ -299,6 +257,11 @@ impl Search<'_> {
         buf.shots.sort_by(|a, b| a.cost.total_cmp(&b.cost));
         let tries = self.cfg.analytic_candidates as usize;
         for shot in buf.shots.iter().take(tries) {
+            // A weighted search can reach the goal through nodes within the bound on a
+            // path above it; such a path is no use to the caller, a cheaper one may be.
+            if node.g + shot.cost > self.bound {
+                break;
+            }
             self.stats.analytic_checks += 1;
             if shot_reaches_goal(&self.checker, &node.pose, shot, &self.goal, self.stats) {
                 return Some(*shot);
@@ -314,7 +277,12 @@ impl Search<'_> {
     pub(crate) fn expand(&mut self, ni: usize, node: &Node) {
         let model = self.model;
         let turn = node.pose.theta.sin_cos();
-        for (pi, prim) in model.prims.iter().enumerate() {
+        let prims = if node.parent == NONE && self.checker.start_relieved() {
+            &model.prims[..]
+        } else {
+            &model.prims[..model.regular]
+        };
+        for (pi, prim) in prims.iter().enumerate() {
             let pose = prim.end_turned(&node.pose, turn);
             let Some(state) = self.grid.state(&pose, model.bin(pose.theta)) else {
                 continue;
@@ -376,111 +344,4 @@ pub(crate) fn shot_reaches_goal(
         pose = m.end(&pose);
     }
     pose.distance(goal) < 1e-6 && pose.heading_error(goal) < 1e-6
-}
-
-impl Buffers {
-    pub(crate) fn reset(&mut self, grid: &SearchGrid) {
-        for n in &self.nodes {
-            self.state_node.set(n.state, NONE);
-        }
-        self.state_node.reset(grid);
-        self.nodes.clear();
-        self.open.clear();
-        self.raised.clear();
-        self.rs_from = None;
-    }
-
-    /// Sizes and touches the buffers for a search of `nodes` nodes on `grid` (`tiles`
-    /// state tiles), so that a fresh process's first long search does not fault them in
-    /// page by page nor copy them as they grow. Capacity only: the buffers stay empty.
-    pub(crate) fn warm(&mut self, grid: &SearchGrid, nodes: usize, tiles: usize) {
-        self.reset(grid);
-        self.state_node.warm(grid, tiles);
-        let blank = Node {
-            pose: Pose2::default(),
-            g: 0.0,
-            h: 0.0,
-            h_grid: 0.0,
-            parent: NONE,
-            state: 0,
-            prim: 0,
-            dir: DIR_NONE,
-            closed: false,
-            h_full: false,
-        };
-        self.nodes.resize(nodes, blank);
-        self.nodes.clear();
-        // Open entries: a node's first and its raised heuristic, and reopenings.
-        let mut open = std::mem::take(&mut self.open).into_vec();
-        let entry = OpenEntry {
-            f: 0.0,
-            g: 0.0,
-            node: 0,
-        };
-        open.resize(2 * nodes, entry);
-        open.clear();
-        self.open = BinaryHeap::from(open);
-    }
-
-    pub(crate) fn push_node(&mut self, n: Node) {
-        let idx = self.nodes.len() as u32;
-        self.state_node.set(n.state, idx);
-        self.open.push(OpenEntry {
-            f: n.g + n.h,
-            g: n.g,
-            node: idx,
-        });
-        self.nodes.push(n);
-    }
-
-    /// Replaces node `existing` by `child` (same state, lower g) and queues it again;
-    /// its old open entry goes stale (its g no longer matches).
-    #[inline]
-    pub(crate) fn reopen(&mut self, existing: u32, child: Node) {
-        self.nodes[existing as usize] = child;
-        self.open.push(OpenEntry {
-            f: child.g + child.h,
-            g: child.g,
-            node: existing,
-        });
-    }
-
-    /// Samples the motions from the start to `last` and then `shot` into `raw`.
-    pub(crate) fn trace(
-        &mut self,
-        last: usize,
-        model: &Model,
-        shot: &Shot,
-        spacing: f64,
-        rot: f64,
-    ) {
-        self.chain.clear();
-        let mut i = last as u32;
-        while i != NONE {
-            self.chain.push(i);
-            i = self.nodes[i as usize].parent;
-        }
-        self.raw.clear();
-        self.traced.clear();
-        for w in self.chain.windows(2).rev() {
-            let (child, parent) = (&self.nodes[w[0] as usize], &self.nodes[w[1] as usize]);
-            self.traced
-                .push((parent.pose, model.prims[child.prim as usize]));
-        }
-        let mut pose = self.nodes[last].pose;
-        for m in shot.motions() {
-            self.traced.push((pose, *m));
-            pose = m.end(&pose);
-        }
-        if self.traced.is_empty() {
-            self.traced.push((pose, Motion::Rotate { angle: 0.0 }));
-        }
-        self.raw_motion.clear();
-        for (k, (from, m)) in self.traced.iter().enumerate() {
-            append_motion(&mut self.raw, from, m, spacing, rot);
-            self.raw_motion.resize(self.raw.len(), k as u32);
-        }
-        finish(&mut self.raw, pose);
-        self.raw_motion.push(self.traced.len() as u32 - 1);
-    }
 }

@@ -619,6 +619,7 @@ mod golden;
 mod lazy;
 mod relief;
 mod validation;
+mod wedged;
 
 /// The budget grows with the area the goal can be reached from: a request whose own
 /// budget is far too small for its detour still finds the path, and the expansions it

@@ -207,7 +207,9 @@ impl Default for InputsConfig {
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct StraightConfig {
-    /// Cruise speed along the line, m/s, forwards and backwards.
+    /// Cruise speed along the line, m/s, forwards and backwards. Also the crawl's: a
+    /// step whose optimised band collides drives the reference at this speed instead,
+    /// when the robot is no faster and the reference band does not collide.
     pub speed: f64,
     /// Clearance kept between the footprint and occupied cells (taken as squares), m.
     /// Replaces the goal's margin, which is sized for open space and would close the

@@ -7,6 +7,11 @@
 //! (where along the task), `planner.rs` (the band) and `objective/` (what is optimised).
 //! A straight move (docking) is not optimised: `straight.rs` rolls it out, without a
 //! band. The goal tolerance is the goal's own, or `band.goal_tolerance` without one.
+//! Where the optimised band collides and the robot is no faster than a straight move,
+//! the reference itself (what the global planner found free), timed at that move's
+//! speed, is judged by the same rules and driven if it does not collide: the
+//! optimiser can end in a local minimum through an obstacle in a tight spot, the same
+//! one each step while the robot stands still.
 
 use aisle_geometry::{GridView, Pose2, wrap_angle};
 use serde::{Deserialize, Serialize};
@@ -21,7 +26,7 @@ use crate::objective::segment::{segment_rate, segment_velocity};
 use crate::objective::{self, Problem};
 use crate::output::{Command, ExitFlag, MAX_COMMANDS, StepOutput, TimedPose};
 use crate::planner::Planner;
-use crate::straight;
+use crate::{seed, straight};
 
 /// The controller's memory between steps, for publishing and for a warm restart.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
@@ -42,6 +47,9 @@ pub struct TebController {
     cfg: TebConfig,
     active: Option<Active>,
     planner: Planner,
+    /// The reference band driven at `straight.speed` when the optimised one collides
+    /// (reused).
+    crawl: Band,
     out: StepOutput,
 }
 
@@ -91,6 +99,7 @@ impl TebController {
             cfg,
             active: None,
             planner: Planner::new(n),
+            crawl: Band::with_capacity(n),
             out: StepOutput {
                 commands: Vec::with_capacity(MAX_COMMANDS),
                 poses: Vec::with_capacity(MAX_COMMANDS),
@@ -246,18 +255,16 @@ impl TebController {
             .try_other_side(&problem, &leg, &pose, &mut done);
         self.planner.finish(&problem);
 
-        // Judge it and write the output.
-        let band = &self.planner.band;
-        let cfg = &self.cfg;
-        let verdict = feasibility::check(
-            band,
-            map,
-            &problem.footprint,
-            problem.margin,
-            cfg.solver.check_step,
-            cfg.limits.min_turning_radius,
-            &problem.timing(),
+        // Judge it (or, where it collides, the reference itself at a crawl) and write
+        // the output.
+        let verdict = judge_or_crawl(
+            &problem,
+            &mut self.planner.band,
+            &mut self.crawl,
+            &leg,
+            &pose,
         );
+        let band = &self.planner.band;
         let (_, violations) = objective::merit(&problem, band);
         let out = &mut self.out;
         out.iterations = done.iterations;
@@ -268,6 +275,42 @@ impl TebController {
         write_timeline(out, band, t, leg.at_rest);
         Ok(&self.out)
     }
+}
+
+/// The verdict on the optimised `band`; where it collides and the robot is no faster
+/// than a straight move, the reference band at that move's speed (built in `crawl`)
+/// replaces it when it does not collide.
+fn judge_or_crawl(
+    problem: &Problem,
+    band: &mut Band,
+    crawl: &mut Band,
+    leg: &Leg,
+    pose: &Pose2,
+) -> feasibility::Verdict {
+    let cfg = problem.cfg;
+    let judge = |band: &Band| {
+        feasibility::check(
+            band,
+            problem.map,
+            &problem.footprint,
+            problem.margin,
+            cfg.solver.check_step,
+            cfg.limits.min_turning_radius,
+            &problem.timing(),
+        )
+    };
+    let verdict = judge(band);
+    if verdict.flag != ExitFlag::Collision || problem.v0.abs() > cfg.straight.speed {
+        return verdict;
+    }
+    let speed = cfg.straight.speed;
+    seed::init_band_at(crawl, problem.reference, leg, pose, problem.v0, speed, cfg);
+    let along = judge(crawl);
+    if along.flag.stops_robot() {
+        return verdict;
+    }
+    band.copy_from(crawl);
+    along
 }
 
 /// The optimisation problem of one step.
@@ -325,5 +368,82 @@ fn write_timeline(out: &mut StepOutput, band: &Band, t0: f64, at_rest: bool) {
     }
     if at_rest {
         out.commands.push(Command { t, v: 0.0, w: 0.0 });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use aisle_geometry::{Direction, Footprint, GridMap, OCCUPIED_DETECTED, PathPose};
+
+    /// A reference along y = 0 from the robot at the origin, a crate at y = 0.6-1.0
+    /// beside it, and a band that bends into the crate (what an optimiser stuck in a
+    /// local minimum may return).
+    fn setup() -> (TebConfig, GridMap, Goal, Band) {
+        let cfg = TebConfig::default();
+        let mut map = GridMap::new_free(-5.0, -5.0, 0.1, 10.0, 10.0).unwrap();
+        for ix in 0..10 {
+            for iy in 0..4 {
+                let c = map
+                    .view()
+                    .cell_of(1.0 + 0.1 * ix as f64, 0.65 + 0.1 * iy as f64);
+                map.set(c, OCCUPIED_DETECTED);
+            }
+        }
+        let reference = (0..=40)
+            .map(|i| PathPose::new(Pose2::new(0.1 * i as f64, 0.0, 0.0), Direction::Forward))
+            .collect();
+        let goal = Goal {
+            reference,
+            footprint: Footprint::new(0.508, 0.43),
+            margin: 0.1,
+            mode: Mode::Follow,
+            tolerance: None,
+        };
+        let mut band = Band::default();
+        band.poses.push(Pose2::new(0.0, 0.0, 0.0));
+        for k in 1..=8 {
+            let x = 0.25 * k as f64;
+            band.poses
+                .push(Pose2::new(x, 0.8 * (x / 2.0).min(1.0), 0.3));
+            band.dts.push(0.3);
+        }
+        (cfg, map, goal, band)
+    }
+
+    fn judged(v0: f64) -> (feasibility::Verdict, Band) {
+        let (cfg, map, goal, mut band) = setup();
+        let mut active = Active::new(&goal);
+        let pose = Pose2::new(0.0, 0.0, 0.0);
+        let leg = active.leg(&cfg, &pose).unwrap();
+        let view = map.view();
+        let problem = problem(&cfg, &view, &goal, &active.reference, &leg, (v0, 0.0));
+        let mut crawl = Band::default();
+        let verdict = judge_or_crawl(&problem, &mut band, &mut crawl, &leg, &pose);
+        (verdict, band)
+    }
+
+    #[test]
+    fn a_colliding_band_gives_way_to_the_reference_at_a_crawl() {
+        let (verdict, band) = judged(0.0);
+        assert!(!verdict.flag.stops_robot(), "{:?}", verdict.flag);
+        // The band is now the reference's, at most the straight moves' speed.
+        let speed = TebConfig::default().straight.speed;
+        assert!(
+            band.poses.iter().all(|p| p.y.abs() < 1e-9),
+            "{:?}",
+            band.poses
+        );
+        for (k, w) in band.poses.windows(2).enumerate() {
+            assert!(w[0].distance(&w[1]) / band.dts[k] <= speed + 1e-9);
+        }
+    }
+
+    #[test]
+    fn a_faster_robot_is_stopped_instead() {
+        let speed = TebConfig::default().straight.speed;
+        let (verdict, band) = judged(2.0 * speed);
+        assert_eq!(verdict.flag, ExitFlag::Collision);
+        assert!(band.poses.iter().any(|p| p.y > 0.5));
     }
 }

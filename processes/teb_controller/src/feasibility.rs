@@ -7,13 +7,18 @@
 use aisle_geometry::{Footprint, GridView, Pose2};
 
 use crate::band::Band;
-use crate::clearance::min_clearance;
+use crate::clearance::{min_clearance, overlaps_occupied};
 use crate::output::ExitFlag;
 use crate::timing::Timing;
 
 /// An acceleration counts as exceeded beyond this factor of its limit (MATLAB's 10 %
 /// for the margin).
 const ACCELERATION_TOLERANCE: f64 = 1.1;
+
+/// How much deeper than the robot stands now (inside a cell's disc, outside its square)
+/// a band leaving that spot may reach between its poses, m: the interpolation's own
+/// wobble, not a way further in.
+const LEAVING_TOLERANCE: f64 = 1e-3;
 
 /// First segment whose velocity change (from the measured velocity, from the previous
 /// segment, or to rest at the end) exceeds `ACCELERATION_TOLERANCE` x its limit,
@@ -84,12 +89,17 @@ pub(crate) fn check(
         return v;
     }
     let start = min_clearance(map, footprint, &band.poses[0], margin);
-    if start < 0.0 {
+    if start < 0.0 && overlaps_occupied(map, footprint, &band.poses[0]) {
         v.flag = ExitFlag::Collision;
         v.last_feasible_index = 0;
         v.min_clearance = start;
         return v;
     }
+    // The clearance takes each cell as its circumscribed disc, up to 0.02 m wider than
+    // the square at 0.1 m cells: a robot can stand inside a disc without touching a
+    // cell. Judged by the discs alone it could never move again; the band may leave at
+    // that depth or less, judged by the squares, until it is clear of every disc.
+    let mut leaving = (start < 0.0).then_some(start);
     let mut first_margin: Option<usize> = None;
     for k in 0..n - 1 {
         let a = band.poses[k];
@@ -107,7 +117,11 @@ pub(crate) fn check(
             );
             let d = min_clearance(map, footprint, &p, margin);
             v.min_clearance = v.min_clearance.min(d);
-            if d < 0.0 {
+            if d >= 0.0 {
+                leaving = None;
+            } else if !leaving.is_some_and(|depth| d >= depth - LEAVING_TOLERANCE)
+                || overlaps_occupied(map, footprint, &p)
+            {
                 v.flag = ExitFlag::Collision;
                 v.last_feasible_index = k;
                 return v;
@@ -188,5 +202,47 @@ mod tests {
         assert_eq!(verdict.last_feasible_index, 0);
         assert_eq!(verdict.flag.code(), 6);
         assert!(!verdict.flag.stops_robot());
+    }
+
+    /// A straight band along x from `x0`, 0.1 m a pose, at 0.5 m/s.
+    fn straight(x0: f64, dx: f64) -> Band {
+        let mut band = Band::default();
+        for k in 0..6 {
+            band.poses.push(Pose2::new(x0 + dx * k as f64, 0.0, 0.0));
+        }
+        band.dts = vec![0.2; 5];
+        band
+    }
+
+    #[test]
+    fn a_robot_inside_a_cells_disc_but_clear_of_its_square_may_leave_it() {
+        // One occupied cell, its square [0.4, 0.5] x [-0.05, 0.05]; the 0.5 m long
+        // robot's front 4 mm short of it (inside the 0.0707 m disc: clearance -0.017).
+        let mut map = GridMap::new_free(-2.0, -2.05, 0.1, 4.0, 4.1).unwrap();
+        let cell = map.view().cell_of(0.45, 0.0);
+        map.set(cell, aisle_geometry::OCCUPIED_STATIC);
+        let fp = Footprint::new(0.5, 0.4);
+        let timing = Timing {
+            v0: 0.0,
+            w0: 0.0,
+            at_rest: true,
+            max_acceleration: 2.4,
+            max_angular_acceleration: 4.8,
+        };
+        let judge = |band: &Band| check(band, &map.view(), &fp, 0.1, 0.02, 0.0, &timing);
+        // Backing away: driven (inside the margin for its first poses), not a collision.
+        let back = judge(&straight(0.146, -0.1));
+        assert_eq!(back.flag, ExitFlag::MarginViolated);
+        assert!(!back.flag.stops_robot());
+        // Further in, not yet touching the square (0.3 mm a pose): a collision all the same.
+        let forward = judge(&straight(0.146, 0.0003));
+        assert_eq!(forward.flag, ExitFlag::Collision);
+        // Standing in the square itself: a collision, whatever the band does.
+        let inside = judge(&straight(0.16, -0.1));
+        assert_eq!(inside.flag, ExitFlag::Collision);
+        assert_eq!(inside.last_feasible_index, 0);
+        // Clear of the disc at the start: a band reaching into it is a collision.
+        let into = judge(&straight(-0.2, 0.08));
+        assert_eq!(into.flag, ExitFlag::Collision);
     }
 }

@@ -97,6 +97,20 @@ pub(crate) fn init_band(
     v0: f64,
     cfg: &TebConfig,
 ) {
+    let vlim = cfg.limits.speed_limit(leg.section.direction);
+    init_band_at(band, reference, leg, robot, v0, vlim, cfg);
+}
+
+/// [`init_band`] with its cruise speed capped at `vlim`, m/s.
+pub(crate) fn init_band_at(
+    band: &mut Band,
+    reference: &Reference,
+    leg: &Leg,
+    robot: &Pose2,
+    v0: f64,
+    vlim: f64,
+    cfg: &TebConfig,
+) {
     band.clear();
     band.poses.push(*robot);
     if leg.section.direction == Direction::Rotate {
@@ -106,7 +120,7 @@ pub(crate) fn init_band(
     let lim = &cfg.limits;
     let b = &cfg.band;
     let (sec, goal, s_robot, at_rest) = (&leg.section, &leg.goal, leg.s_robot, leg.at_rest);
-    let vlim = lim.speed_limit(sec.direction);
+    let vlim = vlim.min(lim.speed_limit(sec.direction));
     let s_end = reference
         .project(
             sec,

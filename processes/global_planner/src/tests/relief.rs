@@ -4,8 +4,8 @@
 
 use super::{BUDGET, check_plan};
 use crate::seed_map::{self, ROBOT, ROBOT_MARGIN, Rect, rasterise};
-use crate::{PlanErrorKind, PlanRequest, Planner, PlannerConfig, validate_path};
-use aisle_geometry::{GridMap, Pose2};
+use crate::{Plan, PlanErrorKind, PlanRequest, Planner, PlannerConfig, validate_path};
+use aisle_geometry::{GridMap, GridView, Pose2};
 
 /// The seed hall at 20 cells/m with a crate whose east face stands 5 cm behind a robot
 /// at (0, 0) facing east (its rear edge is at x = -0.254).
@@ -25,6 +25,34 @@ fn request(goal: Pose2) -> PlanRequest {
     }
 }
 
+/// Checks a plan from a start inside the margin: held to the margin the start keeps
+/// throughout, and to the full one once clear of the relief (a motion that leaves inside
+/// it may end a primitive beyond it). Returns the kept margin.
+pub(super) fn check_relieved(
+    plan: &Plan,
+    req: &PlanRequest,
+    map: &GridView,
+    cfg: &PlannerConfig,
+) -> f64 {
+    let kept = plan
+        .stats
+        .start_relief
+        .expect("the start is inside the margin");
+    let held = PlanRequest {
+        margin: kept,
+        ..*req
+    };
+    check_plan(plan, &held, map, cfg);
+    let reach = cfg.start_relief_radius + 2.0 * cfg.primitive_length;
+    let far = plan
+        .path
+        .iter()
+        .position(|p| p.pose.distance(&req.start) > reach);
+    let tail = &plan.path[far.expect("the path leaves the relief")..];
+    validate_path(tail, req.footprint, req.margin, map, 0.05).unwrap();
+    kept
+}
+
 #[test]
 fn a_start_inside_the_margin_plans_with_the_full_margin_beyond_the_relief() {
     let map = crate_behind_map();
@@ -34,29 +62,8 @@ fn a_start_inside_the_margin_plans_with_the_full_margin_beyond_the_relief() {
     for goal in [Pose2::new(3.0, 0.5, 0.0), Pose2::new(-2.0, 1.5, 0.0)] {
         let req = request(goal);
         let plan = planner.plan(&req, &map.view()).unwrap();
-        let kept = plan
-            .stats
-            .start_relief
-            .expect("the start is inside the margin");
+        let kept = check_relieved(&plan, &req, &map.view(), &cfg);
         assert!((0.03..0.05).contains(&kept), "{kept}");
-        // Held to the kept margin throughout, and to the full one once clear of the
-        // relief (a motion that leaves inside it may end a primitive beyond it).
-        check_plan(
-            &plan,
-            &PlanRequest {
-                margin: kept,
-                ..req
-            },
-            &map.view(),
-            &cfg,
-        );
-        let reach = cfg.start_relief_radius + 2.0 * cfg.primitive_length;
-        let far = plan
-            .path
-            .iter()
-            .position(|p| p.pose.distance(&req.start) > reach);
-        let tail = &plan.path[far.expect("the path leaves the relief")..];
-        validate_path(tail, ROBOT, ROBOT_MARGIN, &map.view(), 0.05).unwrap();
     }
 }
 
