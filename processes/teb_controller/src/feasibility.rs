@@ -204,7 +204,7 @@ mod tests {
         assert!(!verdict.flag.stops_robot());
     }
 
-    /// A straight band along x from `x0`, 0.1 m a pose, at 0.5 m/s.
+    /// A straight band of six poses along x from `x0`, `dx` apart, 0.2 s a segment.
     fn straight(x0: f64, dx: f64) -> Band {
         let mut band = Band::default();
         for k in 0..6 {
