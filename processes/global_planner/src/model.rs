@@ -85,9 +85,7 @@ impl Model {
                     length: sign * length,
                     curvature,
                 };
-                m.prim_cost.push(m.motion_cost(&motion));
-                m.prim_dir.push(if sign > 0.0 { DIR_FWD } else { DIR_REV });
-                m.prims.push(motion);
+                m.push_prim(motion);
             }
         }
         if cfg.allow_rotation {
@@ -96,9 +94,7 @@ impl Model {
                 let motion = Motion::Rotate {
                     angle: sign * angle,
                 };
-                m.prim_cost.push(m.motion_cost(&motion));
-                m.prim_dir.push(DIR_ROT);
-                m.prims.push(motion);
+                m.push_prim(motion);
             }
         }
         m.regular = m.prims.len();
@@ -112,12 +108,17 @@ impl Model {
                     length: sign * leave,
                     curvature: 0.0,
                 };
-                m.prim_cost.push(m.motion_cost(&motion));
-                m.prim_dir.push(if sign > 0.0 { DIR_FWD } else { DIR_REV });
-                m.prims.push(motion);
+                m.push_prim(motion);
             }
         }
         m
+    }
+
+    /// Adds a primitive with its cost and direction.
+    fn push_prim(&mut self, motion: Motion) {
+        self.prim_cost.push(self.motion_cost(&motion));
+        self.prim_dir.push(Self::dir_of(&motion));
+        self.prims.push(motion);
     }
 
     pub fn dir_of(motion: &Motion) -> i8 {

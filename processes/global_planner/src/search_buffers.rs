@@ -52,7 +52,7 @@ pub(crate) struct Buffers {
     pub(crate) state_node: StateTable,
     pub(crate) open: BinaryHeap<OpenEntry>,
     /// Under a cost bound: the open nodes whose heuristic the free-space part raised,
-    /// by `g + h_grid` (`Search::above_bound`).
+    /// by `g + h_grid` (`Search::all_above_bound`).
     pub(crate) raised: BinaryHeap<OpenEntry>,
     pub(crate) rs: Candidates,
     /// The pose (bits) `rs` holds the candidates from, to this request's goal: a node's
