@@ -123,3 +123,55 @@ fn refused_options_are_warned_once_per_process_and_the_mission_completes() {
     assert_eq!(warnings.len(), processes.len(), "{warnings:#?}");
     assert!(run_dir_leftovers(&dir.run_dir()).is_empty());
 }
+
+/// The value the kernel applies now: the least wake-up latency any process holds, in
+/// µs (its default, with no request, is 2,000,000,000). None when this process may not
+/// read the device (it is root's).
+fn wakeup_latency_now() -> Option<i32> {
+    let bytes = std::fs::read("/dev/cpu_dma_latency").ok()?;
+    Some(i32::from_ne_bytes(bytes.get(..4)?.try_into().ok()?))
+}
+
+#[test]
+fn a_wakeup_latency_request_holds_while_the_group_runs_and_ends_with_it() {
+    let Some(before) = wakeup_latency_now() else {
+        eprintln!("skipped: /dev/cpu_dma_latency is not readable here (not root)");
+        return;
+    };
+    // The test asks for 0; with another request of 0 already held, no change could show.
+    if before == 0 {
+        eprintln!("skipped: another process already holds a wake-up latency of 0");
+        return;
+    }
+    let dir = TestDir::new("realtime-wakeup");
+    let config = config_with_graph(&dir, "");
+    std::fs::write(
+        config.join("realtime.toml"),
+        "[default]\nmax_wakeup_latency_us = 0\n",
+    )
+    .unwrap();
+    let mut child = spawn(
+        &dir.run_dir(),
+        &["run", "--quiet", "--config-dir", config.to_str().unwrap()],
+    );
+    let stderr = stderr_reader(&mut child);
+    let mut least = before;
+    let status = loop {
+        if let Some(v) = wakeup_latency_now() {
+            least = least.min(v);
+        }
+        if let Ok(Some(s)) = child.try_wait() {
+            break s;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    let stderr = stderr.join().unwrap();
+    assert!(status.success(), "{status:?}: {stderr}");
+    assert!(!stderr.contains("refused"), "applied as root: {stderr}");
+    assert_eq!(least, 0, "the request was never in force");
+    assert_eq!(
+        wakeup_latency_now(),
+        Some(before),
+        "every request is dropped with its process"
+    );
+}

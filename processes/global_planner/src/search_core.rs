@@ -25,8 +25,8 @@ pub(crate) struct Node {
     pub(crate) g: f64,
     pub(crate) h: f64,
     /// The obstacle-aware part of `h` (the 2D grid distance, in cost): unlike the
-    /// free-space part, a lower bound of any path's cost to the goal (up to the grid's
-    /// quantisation), so the one a cost bound is tested with.
+    /// free-space part, at most `GRID_OVERESTIMATE` times any path's cost to the goal
+    /// (up to the grid's quantisation), so the one a cost bound is tested with.
     pub(crate) h_grid: f64,
     pub(crate) parent: u32,
     pub(crate) state: u32,
@@ -49,7 +49,8 @@ pub(crate) struct Search<'a> {
     pub(crate) checker: Clearance<'a>,
     pub(crate) goal: Pose2,
     /// No path matters whose cost exceeds this: the search ends once every open node's
-    /// `g + h_grid` does (infinite: no bound; `search.rs` adds the grid's quantisation).
+    /// `g + h_grid` does (infinite: no bound; `search.rs` widens the caller's bound by
+    /// the grid's quantisation and its overestimate).
     pub(crate) bound: f64,
     pub(crate) buf: &'a mut Buffers,
     pub(crate) stats: &'a mut PlanStats,

@@ -1,6 +1,6 @@
 //! The exit flag of an optimised band: collision and margin checks along the band
-//! (poses and interpolated states between them), time steps, turning radius and
-//! accelerations.
+//! (poses, and between them the arcs the segments' commands drive), time steps, turning
+//! radius and accelerations.
 //!
 //! Knows nothing of the optimiser; it judges whatever band it is given.
 
@@ -59,6 +59,27 @@ fn first_excessive_acceleration(band: &Band, t: &Timing) -> Option<usize> {
     None
 }
 
+/// The pose at fraction `u` of the segment from `a` to `b` as the robot drives it: the
+/// segment's commands (`segment_velocity`, `segment_rate`: the chord projected on the
+/// mean heading, and the heading change, spread evenly over the segment's time) held
+/// from `a`, which is a circular arc, not the chord. A 0.63 m segment turning by 1 rad
+/// bulges 8 cm off its chord: checking the chord let a band pass whose arc touched a
+/// cell.
+fn driven_pose(a: &Pose2, b: &Pose2, u: f64) -> Pose2 {
+    let turn = b.theta - a.theta;
+    let (s, c) = (0.5 * (a.theta + b.theta)).sin_cos();
+    let along = (b.x - a.x) * c + (b.y - a.y) * s;
+    let half = 0.5 * u * turn;
+    let sinc = if half.abs() < 1e-6 {
+        1.0 - half * half / 6.0
+    } else {
+        half.sin() / half
+    };
+    let (hs, hc) = (a.theta + half).sin_cos();
+    let reach = u * along * sinc;
+    Pose2::new(a.x + reach * hc, a.y + reach * hs, a.theta + u * turn)
+}
+
 pub(crate) struct Verdict {
     pub flag: ExitFlag,
     pub last_feasible_index: usize,
@@ -109,12 +130,11 @@ pub(crate) fn check(
             .ceil() as usize)
             .clamp(1, 1000);
         for j in 1..=pieces {
-            let u = j as f64 / pieces as f64;
-            let p = Pose2::new(
-                a.x + u * (b.x - a.x),
-                a.y + u * (b.y - a.y),
-                a.theta + u * (b.theta - a.theta),
-            );
+            let p = if j == pieces {
+                b
+            } else {
+                driven_pose(&a, &b, j as f64 / pieces as f64)
+            };
             let d = min_clearance(map, footprint, &p, margin);
             v.min_clearance = v.min_clearance.min(d);
             if d >= 0.0 {
@@ -244,5 +264,82 @@ mod tests {
         // Clear of the disc at the start: a band reaching into it is a collision.
         let into = judge(&straight(-0.2, 0.08));
         assert_eq!(into.flag, ExitFlag::Collision);
+    }
+
+    #[test]
+    fn a_segment_is_driven_along_its_arc() {
+        // 0.6 m turning right by 1 rad, kinematically consistent (the chord along the
+        // mean heading): halfway, the arc lies left of the chord's midpoint by nearly its
+        // sagitta R (1 - cos 0.5), 7.7 cm (less the commanded speed's shortfall).
+        let a = Pose2::new(0.0, 0.0, 0.0);
+        let b = Pose2::new(0.6 * (-0.5f64).cos(), 0.6 * (-0.5f64).sin(), -1.0);
+        let mid = driven_pose(&a, &b, 0.5);
+        assert!((mid.theta + 0.5).abs() < 1e-12);
+        let (cx, cy) = (0.5 * b.x, 0.5 * b.y);
+        // Left of the chord (whose direction is -0.5 rad): the normal (sin 0.5, cos 0.5).
+        let off = (mid.x - cx) * 0.5f64.sin() + (mid.y - cy) * 0.5f64.cos();
+        let radius = 0.6 / (2.0 * 0.5f64.sin());
+        let sagitta = radius * (1.0 - 0.5f64.cos());
+        assert!(
+            off > 0.7 * sagitta && off <= sagitta + 1e-9,
+            "{off} vs {sagitta}"
+        );
+        // The end: short of b by the commanded speed's shortfall only (4 % here).
+        let end = driven_pose(&a, &b, 1.0);
+        assert!(end.distance(&b) < 0.05 * 0.6, "{end:?}");
+        assert_eq!(end.theta, b.theta);
+        // A straight segment is its chord, forwards and backwards.
+        let back = driven_pose(&a, &Pose2::new(-0.4, 0.0, 0.0), 0.25);
+        assert!((back.x + 0.1).abs() < 1e-12 && back.y == 0.0);
+    }
+
+    #[test]
+    fn a_cell_the_arc_touches_but_the_chord_clears_stops_the_robot() {
+        // One long right-turning segment; a cell just outside the chord's sweep on the
+        // outside of the turn, where the robot's left side passes as it drives the arc.
+        let a = Pose2::new(0.0, 0.0, 0.0);
+        let b = Pose2::new(1.2 * (-0.6f64).cos(), 1.2 * (-0.6f64).sin(), -1.2);
+        let band = Band {
+            poses: vec![a, b],
+            dts: vec![1.2],
+        };
+        let fp = Footprint::new(0.5, 0.4);
+        let timing = Timing {
+            v0: 1.0,
+            w0: -1.0,
+            at_rest: false,
+            max_acceleration: 10.0,
+            max_angular_acceleration: 10.0,
+        };
+        let chord = |u: f64| {
+            Pose2::new(
+                a.x + u * (b.x - a.x),
+                a.y + u * (b.y - a.y),
+                a.theta + u * (b.theta - a.theta),
+            )
+        };
+        // The first cell centre, moving out from the chord's midpoint along its left
+        // normal, that every chord sample clears.
+        let normal = (0.6f64.sin(), 0.6f64.cos());
+        let clear_of_chord = |map: &GridMap| {
+            (0..=100).all(|j| min_clearance(&map.view(), &fp, &chord(j as f64 / 100.0), 0.1) > 0.0)
+        };
+        let mut placed = None;
+        for step in 0..40 {
+            let d = 0.2 + 0.01 * step as f64;
+            let mut map = GridMap::new_free(-3.0, -3.0, 0.1, 6.0, 6.0).unwrap();
+            let cell = map
+                .view()
+                .cell_of(0.5 * b.x + d * normal.0, 0.5 * b.y + d * normal.1);
+            map.set(cell, aisle_geometry::OCCUPIED_DETECTED);
+            if clear_of_chord(&map) {
+                placed = Some(map);
+                break;
+            }
+        }
+        let map = placed.expect("a cell beside the chord");
+        let verdict = check(&band, &map.view(), &fp, 0.1, 0.02, 0.0, &timing);
+        assert_eq!(verdict.flag, ExitFlag::Collision);
+        assert!(verdict.flag.stops_robot());
     }
 }

@@ -255,9 +255,16 @@ pub(crate) fn step(
     let Some((_, blocked_at)) = first_blocked(map, &fp, out) else {
         out.last_feasible_index = out.poses.len() - 1;
         if rolled.travel == 0.0 && rolled.turned == 0.0 {
-            // Nothing to do here, yet not within the tolerance: along the line the
-            // robot is at the target, across it too far off for a straight move.
-            stop(out, pose, ExitFlag::OffPath);
+            // Nothing to do here. Within the tolerance but still rolling (the last
+            // step's braking): stop, and the next step, standing, has the target
+            // reached. Otherwise along the line the robot is at the target, across it
+            // too far off for a straight move.
+            let flag = if within(tol, &pose, target) {
+                ExitFlag::Valid
+            } else {
+                ExitFlag::OffPath
+            };
+            stop(out, pose, flag);
         }
         return;
     };
@@ -275,4 +282,62 @@ pub(crate) fn step(
         return;
     }
     out.last_feasible_index = out.poses.len() - 1;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use aisle_geometry::GridMap;
+
+    /// A sweep's move out from under a rack reached its target still rolling at
+    /// 0.013 m/s (the end of its braking): the step had nothing left to roll and called that off the path (exit flag 5), which
+    /// the mission takes for a blocked move. At the target, still rolling, it stops.
+    #[test]
+    fn arriving_still_rolling_stops_and_is_reached_once_standing() {
+        let cfg = TebConfig::default();
+        let map = GridMap::new_free(-5.0, -5.0, 0.1, 10.0, 10.0).unwrap();
+        let fp = Footprint::new(0.508, 0.43);
+        let target = Pose2::new(1.0, 0.5, 0.8);
+        let tol = [0.02, 0.02, 0.02];
+        let mut out = StepOutput::default();
+        step(
+            &cfg,
+            &fp,
+            &target,
+            &tol,
+            target,
+            (0.013, 0.0),
+            &map.view(),
+            &mut out,
+        );
+        assert_eq!(out.exit_flag, ExitFlag::Valid);
+        assert!(!out.reached_goal);
+        assert_eq!(out.command_at(out.t0), (0.0, 0.0));
+        let mut out = StepOutput::default();
+        step(
+            &cfg,
+            &fp,
+            &target,
+            &tol,
+            target,
+            (0.0, 0.0),
+            &map.view(),
+            &mut out,
+        );
+        assert!(out.reached_goal);
+        // Off the line across, with nothing to roll: still off the path.
+        let beside = Pose2::new(1.0 - 0.1 * 0.8f64.sin(), 0.5 + 0.1 * 0.8f64.cos(), 0.8);
+        let mut out = StepOutput::default();
+        step(
+            &cfg,
+            &fp,
+            &target,
+            &tol,
+            beside,
+            (0.013, 0.0),
+            &map.view(),
+            &mut out,
+        );
+        assert_eq!(out.exit_flag, ExitFlag::OffPath);
+    }
 }

@@ -1,7 +1,8 @@
 //! Applying one node's [`Options`] to the calling process, at startup, before its first
 //! cycle: affinity and priority to every thread it has (later threads inherit them),
-//! memory locked, stack and heap pre-faulted. What the OS refuses (no CAP_SYS_NICE, an
-//! RLIMIT_RTPRIO or RLIMIT_MEMLOCK too low, a CPU outside the cpuset) is collected, with
+//! memory locked, stack and heap pre-faulted, the CPUs' wake-up latency requested. What the OS refuses (no CAP_SYS_NICE, an
+//! RLIMIT_RTPRIO or RLIMIT_MEMLOCK too low, a CPU outside the cpuset, a PM QoS device
+//! only root may write) is collected, with
 //! the reason, and the run goes on without it: [`apply_or_warn`] logs it in one warning.
 //!
 //! Knows Linux system calls; not which node it runs in, nor the file.
@@ -88,6 +89,13 @@ pub fn apply(o: &Options, forks: Forks) -> Outcome {
     if o.prefault_stack_kb > 0 {
         let kb = o.prefault_stack_kb;
         record(format!("prefault_stack_kb = {kb}"), prefault_stack(kb));
+    }
+    if let Some(us) = o.max_wakeup_latency_us {
+        let device = std::path::Path::new(super::wakeup::DEVICE);
+        record(
+            format!("max_wakeup_latency_us = {us}"),
+            super::wakeup::request(device, us),
+        );
     }
     if o.priority > 0 {
         let p = o.priority;

@@ -1,5 +1,6 @@
 //! `config/realtime.toml`: the real-time execution options of each node of the graph
-//! (CPU affinity, SCHED_FIFO priority, locked memory, pre-faulted stack and heap), a
+//! (CPU affinity, SCHED_FIFO priority, locked memory, pre-faulted stack and heap, the
+//! CPUs' wake-up latency), a
 //! `[default]` table and per-node `[node.<name>]` overrides, every option off unless
 //! set. A config directory without the file runs with every option off.
 //!
@@ -20,6 +21,9 @@ pub const MAX_PRIORITY: u32 = 99;
 pub const MAX_PREFAULT_STACK_KB: u32 = 4096;
 /// Largest heap pre-fault (1 GiB): far above what a node uses, a guard against a typo.
 pub const MAX_PREFAULT_HEAP_KB: u32 = 1 << 20;
+/// Largest wake-up latency asked (1 s): any idle state leaves faster, so a larger value
+/// asks nothing.
+pub const MAX_WAKEUP_LATENCY_US: u32 = 1_000_000;
 /// The CPU indices `cpu_set_t` can hold.
 const CPU_SET_SIZE: usize = 1024;
 
@@ -40,6 +44,9 @@ pub struct OptionsFile {
     /// KiB of heap allocated, touched and freed at startup, with the allocator told to
     /// keep it (no trimming, no mmap for large blocks).
     pub prefault_heap_kb: Option<u32>,
+    /// µs: while the node runs, no CPU enters an idle state slower to leave than this
+    /// (PM QoS, `/dev/cpu_dma_latency`); 0 keeps idle CPUs polling.
+    pub max_wakeup_latency_us: Option<u32>,
 }
 
 /// The whole file.
@@ -62,6 +69,8 @@ pub struct Options {
     pub lock_memory: bool,
     pub prefault_stack_kb: u32,
     pub prefault_heap_kb: u32,
+    /// None: no request (0 is a request: poll).
+    pub max_wakeup_latency_us: Option<u32>,
 }
 
 impl Options {
@@ -108,6 +117,9 @@ impl RealtimeConfig {
                 .unwrap_or(false),
             prefault_stack_kb: pick(|o| o.prefault_stack_kb),
             prefault_heap_kb: pick(|o| o.prefault_heap_kb),
+            max_wakeup_latency_us: n
+                .and_then(|n| n.max_wakeup_latency_us)
+                .or(d.max_wakeup_latency_us),
         }
     }
 
@@ -203,6 +215,14 @@ fn validate_table(table: &str, o: &OptionsFile) -> Result<(), InvalidKey> {
     }
     if let Some(kb) = o.prefault_heap_kb {
         aisle_config::checks::in_range(&key("prefault_heap_kb"), kb, 0, MAX_PREFAULT_HEAP_KB)?;
+    }
+    if let Some(us) = o.max_wakeup_latency_us {
+        aisle_config::checks::in_range(
+            &key("max_wakeup_latency_us"),
+            us,
+            0,
+            MAX_WAKEUP_LATENCY_US,
+        )?;
     }
     Ok(())
 }

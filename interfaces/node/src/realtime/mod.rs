@@ -1,18 +1,19 @@
 //! Real-time execution options per node (`config/realtime.toml`): [`config`] reads and
 //! checks the file, [`apply`] applies one node's options in its own process and says
-//! once what the OS refused. The runtime ([`crate::run`]) applies a stage's options
+//! once what the OS refused, `wakeup` holds the CPUs' wake-up latency request. The runtime ([`crate::run`]) applies a stage's options
 //! after its `start` and before its first cycle; the simulator, the recorder and the
 //! supervisor call [`apply_for`] at the same point of their own loops.
 
 mod apply;
 mod config;
+mod wakeup;
 
 pub use apply::{
     Forks, Outcome, Refusal, apply, apply_or_warn, available_cpus, inherited_affinity,
 };
 pub use config::{
-    MAX_PREFAULT_HEAP_KB, MAX_PREFAULT_STACK_KB, MAX_PRIORITY, Options, OptionsFile,
-    RealtimeConfig, path_in,
+    MAX_PREFAULT_HEAP_KB, MAX_PREFAULT_STACK_KB, MAX_PRIORITY, MAX_WAKEUP_LATENCY_US, Options,
+    OptionsFile, RealtimeConfig, path_in,
 };
 
 use crate::Graph;

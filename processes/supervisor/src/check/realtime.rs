@@ -100,6 +100,25 @@ mod tests {
         );
         let err = error_of("stack", "[default]\nprefault_stack_kb = 100000\n");
         assert!(err.contains("default.prefault_stack_kb"), "{err}");
+        let err = error_of("wake", "[node.lidar]\nmax_wakeup_latency_us = 2000000\n");
+        assert!(
+            err.contains("realtime.toml:2") && err.contains("node.lidar.max_wakeup_latency_us"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn a_wakeup_latency_of_zero_is_a_request_and_a_node_may_override_it() {
+        let dir = dir_with(
+            "wake-ok",
+            "[default]\nmax_wakeup_latency_us = 0\n[node.recorder]\nmax_wakeup_latency_us = 100\n",
+        );
+        let config = check(&dir, &Graph::shipped()).unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        let teb = config.options("teb_controller");
+        assert_eq!(teb.max_wakeup_latency_us, Some(0));
+        assert!(!teb.is_off());
+        assert_eq!(config.options("recorder").max_wakeup_latency_us, Some(100));
     }
 
     #[test]

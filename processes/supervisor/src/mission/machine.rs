@@ -347,7 +347,8 @@ impl Mission {
         if report.reached_goal {
             return match self.stage_reached(pose) {
                 Some(actions) => actions,
-                None => self.finish_leg(now_s, pose),
+                None if self.at_leg_goal(&pose) => self.finish_leg(now_s, pose),
+                None => self.reached_elsewhere(now_s, pose),
             };
         }
         if self.phase == Phase::Driving {
@@ -485,6 +486,7 @@ impl Mission {
     }
 }
 
+mod arrival;
 pub mod backoff;
 pub mod docking;
 mod progress;

@@ -149,16 +149,17 @@ impl Mission {
                 Some(_) => vec![self.redo_docking(pose, footprint, margin)],
                 None => Vec::new(),
             },
-            Stage::UndockTurn { .. } | Stage::Undocking { .. } => {
-                // The way out is blocked (often by what the lidar could not see from
-                // under the body when the first plan, on the static map, chose it):
-                // plan the move out again from here, with the detections; the planner
-                // takes the other side when this one stays blocked.
-                self.stage = Stage::Path;
-                self.phase = Phase::Planning;
-                vec![self.plan_action(pose, true)]
-            }
-            Stage::Path | Stage::ToDock { .. } => {
+            // On a move out from under a body, the way out is blocked (often by what
+            // the lidar could not see from under it when the first plan, on the static
+            // map, chose it): plan the move out again from here, with the detections;
+            // the planner takes the other side when this one stays blocked. The stage
+            // stays until a plan replaces it (`drive`): if none comes, the controller
+            // goes on with what it drives, and the end of that is the stage's end, not
+            // necessarily the leg's.
+            Stage::UndockTurn { .. }
+            | Stage::Undocking { .. }
+            | Stage::Path
+            | Stage::ToDock { .. } => {
                 self.phase = Phase::Planning;
                 vec![self.plan_action(pose, true)]
             }

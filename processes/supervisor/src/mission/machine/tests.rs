@@ -99,12 +99,12 @@ fn the_seed_sequence_plans_rotates_attaches_and_detaches() {
         Action::Follow { .. }
     ));
     assert!(m.on_controller(1.0, p, OK).is_empty());
-    let a = m.on_controller(2.0, p, REACHED);
+    let a = m.on_controller(2.0, Pose2::new(1.0, 0.0, 0.0), REACHED);
     assert!(
         a.iter().any(|x| matches!(x, Action::Rotate { .. })),
         "{a:?}"
     );
-    let a = m.on_controller(3.0, p, REACHED);
+    let a = m.on_controller(3.0, Pose2::new(1.0, 0.0, 3.0), REACHED);
     assert_eq!(a[0], Action::Attach("rack".into()));
     assert!(matches!(
         a[1],
@@ -116,7 +116,7 @@ fn the_seed_sequence_plans_rotates_attaches_and_detaches() {
     ));
     assert!(matches!(a[2], Action::Plan { margin, .. } if margin == 0.4));
     m.on_plan(3.0, p, Ok(Planned::plain(path())));
-    let a = m.on_controller(9.0, p, REACHED);
+    let a = m.on_controller(9.0, Pose2::new(2.0, 0.0, 0.0), REACHED);
     assert_eq!(a[0], Action::Detach);
     assert_eq!(*a.last().unwrap(), Action::Halt);
     assert!(m.succeeded());
@@ -241,8 +241,10 @@ fn a_departing_leg_drives_straight_out_first_then_plans_the_leg() {
     let p = Pose2::default();
     m.start_leg(0.0, p);
     m.on_plan(0.0, p, Ok(Planned::plain(path())));
-    m.on_controller(1.0, p, REACHED);
-    let at = Pose2::new(1.0, 0.0, 0.5);
+    m.on_controller(1.0, Pose2::new(1.0, 0.0, 0.0), REACHED);
+    // Turned within the tolerance of leg b's 3.0 rad: the departure leaves along the
+    // heading the robot has.
+    let at = Pose2::new(1.0, 0.0, 2.9);
     let a = m.on_controller(2.0, at, REACHED);
     // Leg c carries; its first motion is the straight departure.
     let Some(Action::Plan { goal, .. }) = a.iter().find(|x| matches!(x, Action::Plan { .. }))
@@ -250,10 +252,10 @@ fn a_departing_leg_drives_straight_out_first_then_plans_the_leg() {
         panic!("{a:?}")
     };
     assert!(
-        (goal.x - (1.0 + 1.2 * 0.5f64.cos())).abs() < 1e-12
-            && (goal.y - 1.2 * 0.5f64.sin()).abs() < 1e-12
+        (goal.x - (1.0 + 1.2 * 2.9f64.cos())).abs() < 1e-12
+            && (goal.y - 1.2 * 2.9f64.sin()).abs() < 1e-12
     );
-    assert_eq!(goal.theta, 0.5);
+    assert_eq!(goal.theta, 2.9);
     m.on_plan(3.0, at, Ok(Planned::plain(path())));
     let out = Pose2::new(2.0, 0.5, 0.5);
     let a = m.on_controller(4.0, out, REACHED);
@@ -275,15 +277,8 @@ fn a_departing_leg_drives_straight_out_first_then_plans_the_leg() {
     assert_eq!(m.results.len(), 2, "the departure is part of the leg");
 }
 
-fn poses(n: usize) -> Vec<PathPose> {
-    (0..n)
-        .map(|i| PathPose::new(Pose2::new(i as f64, 0.0, 0.0), Direction::Forward))
-        .collect()
-}
-
-#[test]
-fn a_pick_docks_straight_and_the_leg_after_the_drop_undocks_first() {
-    let mut m = mission();
+/// Adds leg d: to (5, 0), alone, after the set-down of leg c.
+fn push_leg_d(m: &mut Mission) {
     m.cfg.leg.push(LegSpec {
         name: "d".into(),
         goal_given: Some([5.0, 0.0, 0.0]),
@@ -294,6 +289,21 @@ fn a_pick_docks_straight_and_the_leg_after_the_drop_undocks_first() {
         approach: None,
         depart: None,
     });
+}
+
+fn poses(n: usize) -> Vec<PathPose> {
+    (0..n)
+        .map(|i| PathPose::new(Pose2::new(i as f64, 0.0, 0.0), Direction::Forward))
+        .collect()
+}
+
+#[test]
+fn a_pick_docks_straight_and_the_leg_after_the_drop_undocks_first() {
+    let mut m = mission();
+    push_leg_d(&mut m);
+    // The turn in place keeps the heading, so the rack is carried as it stood.
+    m.cfg.leg[1].goal = [1.0, 0.0, 0.0];
+    m.cfg.leg[1].goal_given = Some([1.0, 0.0, 0.0]);
     let p = Pose2::default();
     let a = m.start_leg(0.0, p);
     let Action::Plan {
@@ -338,7 +348,8 @@ fn a_pick_docks_straight_and_the_leg_after_the_drop_undocks_first() {
         "{a:?}"
     );
     // Under the rack: the turn on the spot ignores it, then it is carried.
-    let a = m.on_controller(2.0, p, REACHED);
+    let under = Pose2::new(1.0, 0.0, 0.0);
+    let a = m.on_controller(2.0, under, REACHED);
     assert!(a.iter().any(|x| matches!(
         x,
         Action::MapperControl {
@@ -346,15 +357,15 @@ fn a_pick_docks_straight_and_the_leg_after_the_drop_undocks_first() {
             ..
         }
     )));
-    let a = m.on_controller(3.0, p, REACHED);
+    let a = m.on_controller(3.0, under, REACHED);
     assert!(matches!(a[2], Action::Plan { dock: None, .. }), "{a:?}");
     m.on_plan(3.0, p, Ok(Planned::plain(poses(2))));
     // Set down: the next leg leaves it straight, then follows the rest.
-    let drop = Pose2::new(3.0, 0.0, 0.0);
+    let drop = Pose2::new(2.0, 0.0, 0.0);
     let a = m.on_controller(4.0, drop, REACHED);
     assert_eq!(a[0], Action::Detach);
     assert!(
-        a.iter().any(|x| matches!(x, Action::Plan { dock: Some(Dock::OutOf { body }), .. } if body.pose == Pose2::new(4.0, 0.0, 0.0))),
+        a.iter().any(|x| matches!(x, Action::Plan { dock: Some(Dock::OutOf { body }), .. } if body.pose == Pose2::new(2.0, 0.0, 0.0))),
         "{a:?}"
     );
     // Still under it: ignored, not yet kept as an obstacle.
@@ -393,7 +404,7 @@ fn a_pick_docks_straight_and_the_leg_after_the_drop_undocks_first() {
     );
     let a = m.on_controller(5.0, drop, REACHED);
     // Out from under it: the legs of the rack set down are known obstacles now.
-    let leg = (Pose2::new(4.4, 0.35, 0.0), Footprint::new(0.05, 0.05));
+    let leg = (Pose2::new(2.4, 0.35, 0.0), Footprint::new(0.05, 0.05));
     assert!(
         matches!(&a[0], Action::MapperControl { ignore: None, placed, .. } if *placed == [leg]),
         "{a:?}"
@@ -402,7 +413,7 @@ fn a_pick_docks_straight_and_the_leg_after_the_drop_undocks_first() {
         matches!(&a[1], Action::Follow { reference, .. } if reference.len() == 3),
         "{a:?}"
     );
-    let a = m.on_controller(6.0, drop, REACHED);
+    let a = m.on_controller(6.0, Pose2::new(5.0, 0.0, 0.0), REACHED);
     assert_eq!(*a.last().unwrap(), Action::Halt);
     assert!(m.succeeded());
 }
@@ -463,16 +474,13 @@ fn a_reduced_margin_lasts_until_the_robot_is_clear_of_the_spot() {
 #[test]
 fn a_way_out_through_a_side_turns_in_place_first() {
     let mut m = mission();
-    m.cfg.leg.push(LegSpec {
-        name: "d".into(),
-        goal_given: Some([5.0, 0.0, 0.0]),
-        goal: [5.0, 0.0, 0.0],
-        free_heading: false,
-        rotate: false,
-        carry: None,
-        approach: None,
-        depart: None,
-    });
+    push_leg_d(&mut m);
+    // Legs end where the robot stands: under the rack at (1, 0) without turning, and
+    // set down at (3, 0).
+    m.cfg.leg[1].goal = [1.0, 0.0, 0.0];
+    m.cfg.leg[1].goal_given = Some([1.0, 0.0, 0.0]);
+    m.cfg.leg[2].goal = [3.0, 0.0, 0.0];
+    m.cfg.leg[2].goal_given = Some([3.0, 0.0, 0.0]);
     let p = Pose2::default();
     m.start_leg(0.0, p);
     let docking = Planned {
@@ -481,8 +489,9 @@ fn a_way_out_through_a_side_turns_in_place_first() {
         undock_to: None,
     };
     m.on_plan(0.0, p, Ok(docking));
-    for t in [1.0, 2.0, 3.0] {
-        m.on_controller(t, p, REACHED);
+    let under = Pose2::new(1.0, 0.0, 0.0);
+    for (t, at) in [(1.0, p), (2.0, under), (3.0, under)] {
+        m.on_controller(t, at, REACHED);
     }
     m.on_plan(3.0, p, Ok(Planned::plain(poses(2))));
     let drop = Pose2::new(3.0, 0.0, 0.0);
@@ -547,4 +556,72 @@ fn a_rack_approached_without_a_goal_counts_any_side_as_its_heading() {
     m.on_controller(3.0, across, REACHED);
     let leg = &m.results[0];
     assert!((leg.final_heading_error_rad - 0.05).abs() < 1e-9, "{leg:?}");
+}
+
+#[test]
+fn a_reached_report_away_from_the_legs_goal_plans_again() {
+    let mut m = mission();
+    let p = Pose2::default();
+    m.start_leg(0.0, p);
+    m.on_plan(0.0, p, Ok(Planned::plain(path())));
+    // Leg a ends at (1, 0): a report of "reached" 1 m short of it is not the leg's end.
+    let a = m.on_controller(1.0, p, REACHED);
+    assert!(matches!(a[..], [Action::Plan { .. }]), "{a:?}");
+    assert!(m.results.is_empty() && !m.is_finished());
+    m.on_plan(1.0, p, Ok(Planned::plain(path())));
+    m.on_controller(1.5, p, OK);
+    let a = m.on_controller(2.0, Pose2::new(1.1, 0.05, 0.1), REACHED);
+    assert!(
+        a.iter().any(|x| matches!(x, Action::Rotate { .. })),
+        "{a:?}"
+    );
+    assert!(m.results[0].reached && m.results[0].replans == 1);
+}
+
+/// A sweep's mission: the move out from under a rack set down was blocked, its replan
+/// failed, and the end of the move it went on driving was taken for the leg's end, 18.9
+/// m from its goal.
+#[test]
+fn a_move_out_driven_on_after_a_failed_replan_does_not_end_the_leg() {
+    let mut m = mission();
+    m.cfg.leg[1].goal = [1.0, 0.0, 0.0];
+    m.cfg.leg[1].goal_given = Some([1.0, 0.0, 0.0]);
+    m.cfg.max_replans_per_leg = 5;
+    push_leg_d(&mut m);
+    let p = Pose2::default();
+    let under = Pose2::new(1.0, 0.0, 0.0);
+    m.start_leg(0.0, p);
+    m.on_plan(0.0, p, Ok(Planned::plain(path())));
+    for t in [1.0, 2.0] {
+        m.on_controller(t, under, REACHED);
+    }
+    m.on_plan(2.0, under, Ok(Planned::plain(poses(3))));
+    let drop = Pose2::new(2.0, 0.0, 0.0);
+    m.on_controller(3.0, drop, REACHED);
+    let out = Planned {
+        path: poses(4),
+        dock_from: None,
+        undock_to: Some(1),
+    };
+    let a = m.on_plan(3.0, drop, Ok(out));
+    assert!(matches!(a[1], Action::Straight { .. }), "{a:?}");
+    let blocked = ControllerReport { exit_flag: 1, ..OK };
+    let a = m.on_controller(3.5, drop, blocked);
+    assert!(matches!(a[..], [Action::Plan { .. }]), "{a:?}");
+    let in_collision = |margin_bound| PlanFailure {
+        why: "the start is in collision".into(),
+        margin_bound,
+    };
+    assert!(matches!(
+        m.on_plan(3.5, drop, Err(in_collision(true)))[..],
+        [Action::Plan { .. }]
+    ));
+    assert!(m.on_plan(3.5, drop, Err(in_collision(false))).is_empty());
+    // The move out goes on and ends: the leg goes on with the rest of its plan.
+    let a = m.on_controller(4.5, Pose2::new(1.0, 0.0, 0.0), REACHED);
+    assert!(
+        matches!(&a[1], Action::Follow { reference, .. } if reference.len() == 3),
+        "{a:?}"
+    );
+    assert_eq!(m.results.len(), 3, "leg d is not over: {:?}", m.results);
 }
