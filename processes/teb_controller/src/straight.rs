@@ -289,9 +289,10 @@ mod tests {
     use super::*;
     use aisle_geometry::GridMap;
 
-    /// A sweep's move out from under a rack reached its target still rolling at
-    /// 0.013 m/s (the end of its braking): the step had nothing left to roll and called that off the path (exit flag 5), which
-    /// the mission takes for a blocked move. At the target, still rolling, it stops.
+    /// A sweep's move out from under a rack reached its target still rolling at 0.013
+    /// m/s (the end of its braking): the step had nothing left to roll and called that
+    /// off the line (exit flag 5), which the mission takes for a blocked move. At the
+    /// target, still rolling, it stops.
     #[test]
     fn arriving_still_rolling_stops_and_is_reached_once_standing() {
         let cfg = TebConfig::default();
@@ -299,45 +300,27 @@ mod tests {
         let fp = Footprint::new(0.508, 0.43);
         let target = Pose2::new(1.0, 0.5, 0.8);
         let tol = [0.02, 0.02, 0.02];
-        let mut out = StepOutput::default();
-        step(
-            &cfg,
-            &fp,
-            &target,
-            &tol,
-            target,
-            (0.013, 0.0),
-            &map.view(),
-            &mut out,
-        );
-        assert_eq!(out.exit_flag, ExitFlag::Valid);
-        assert!(!out.reached_goal);
-        assert_eq!(out.command_at(out.t0), (0.0, 0.0));
-        let mut out = StepOutput::default();
-        step(
-            &cfg,
-            &fp,
-            &target,
-            &tol,
-            target,
-            (0.0, 0.0),
-            &map.view(),
-            &mut out,
-        );
-        assert!(out.reached_goal);
-        // Off the line across, with nothing to roll: still off the path.
+        let step_at = |pose: Pose2, v: f64| {
+            let mut out = StepOutput::default();
+            step(
+                &cfg,
+                &fp,
+                &target,
+                &tol,
+                pose,
+                (v, 0.0),
+                &map.view(),
+                &mut out,
+            );
+            out
+        };
+        let rolling = step_at(target, 0.013);
+        assert_eq!(rolling.exit_flag, ExitFlag::Valid);
+        assert!(!rolling.reached_goal);
+        assert_eq!(rolling.command_at(rolling.t0), (0.0, 0.0));
+        assert!(step_at(target, 0.0).reached_goal);
+        // Off the line across, with nothing to roll: still off the line.
         let beside = Pose2::new(1.0 - 0.1 * 0.8f64.sin(), 0.5 + 0.1 * 0.8f64.cos(), 0.8);
-        let mut out = StepOutput::default();
-        step(
-            &cfg,
-            &fp,
-            &target,
-            &tol,
-            beside,
-            (0.013, 0.0),
-            &map.view(),
-            &mut out,
-        );
-        assert_eq!(out.exit_flag, ExitFlag::OffPath);
+        assert_eq!(step_at(beside, 0.013).exit_flag, ExitFlag::OffPath);
     }
 }
