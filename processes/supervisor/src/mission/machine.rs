@@ -373,36 +373,18 @@ impl Mission {
                 );
             }
             if infeasible || stalled {
-                self.replans += 1;
-                if self.replans + self.plan_failures > self.cfg.max_replans_per_leg {
-                    let why = if stalled {
+                if self.replan_spends_budget() {
+                    let what = if stalled {
                         format!("made no progress for {window} s")
                     } else {
                         format!("stayed infeasible (exit flag {})", report.exit_flag)
                     };
-                    // Failed plans use up the same budget: say so, or the count
-                    // looks short of `max_replans_per_leg`.
-                    let failed = match self.plan_failures {
-                        0 => String::new(),
-                        n => format!(" and {n} failed plan(s)"),
-                    };
-                    return self.fail(
-                        now_s,
-                        pose,
-                        format!(
-                            "leg {} `{}`: the controller {why} after {} replans{failed}",
-                            self.leg + 1,
-                            self.leg_name(),
-                            self.replans - 1
-                        ),
-                    );
+                    return self.fail_after_replans(now_s, pose, &what);
                 }
                 if stalled {
                     tracing::info!("t = {now_s:.1} s: no progress for {window} s: recovering");
                 }
-                self.cooldown = self.cfg.replan_cooldown_steps;
-                self.progress.reset(now_s);
-                return self.recover(pose);
+                return self.replan_from(now_s, pose);
             }
         }
         Vec::new()
@@ -490,6 +472,7 @@ mod arrival;
 pub mod backoff;
 pub mod docking;
 mod progress;
+mod replan;
 
 #[cfg(test)]
 mod tests;

@@ -40,19 +40,10 @@ impl Mission {
             pose.distance(&goal),
             self.leg + 1
         );
-        self.replans += 1;
-        if self.replans + self.plan_failures > self.cfg.max_replans_per_leg {
-            let why = format!(
-                "leg {} `{}`: the controller stopped {:.2} m from the goal after {} replans",
-                self.leg + 1,
-                self.leg_name(),
-                pose.distance(&goal),
-                self.replans - 1
-            );
-            return self.fail(now_s, pose, why);
+        if self.replan_spends_budget() {
+            let what = format!("stopped {:.2} m from the goal", pose.distance(&goal));
+            return self.fail_after_replans(now_s, pose, &what);
         }
-        self.cooldown = self.cfg.replan_cooldown_steps;
-        self.progress.reset(now_s);
-        self.recover(pose)
+        self.replan_from(now_s, pose)
     }
 }
