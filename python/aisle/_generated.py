@@ -7,8 +7,8 @@ import ctypes
 import enum
 from typing import NamedTuple
 
-SCHEMA_HASH = 0x67368f4bb3c6ab01
-SCHEMA_HASH_HEX = "67368f4bb3c6ab01"
+SCHEMA_HASH = 0x7cea036d2d7ca862
+SCHEMA_HASH_HEX = "7cea036d2d7ca862"
 
 # Capacities and flag bits.
 STAGE_CONTROLLER = 1
@@ -446,13 +446,14 @@ class ControllerGoal(ctypes.Structure):
 
 
 class Trajectory(ctypes.Structure):
-    """`aisle.Trajectory.v1`: 28784 bytes, align 8."""
+    """`aisle.Trajectory.v2`: 28792 bytes, align 8."""
 
-    TYPE_NAME = "aisle.Trajectory.v1"
+    TYPE_NAME = "aisle.Trajectory.v2"
     _fields_ = [
         ("header", Header),
         ("goal_id", ctypes.c_uint64),
         ("start_ns", ctypes.c_uint64),
+        ("inputs_tick", ctypes.c_uint64),
         ("len", ctypes.c_uint32),
         ("poses_len", ctypes.c_uint32),
         ("exit_flag", ctypes.c_uint32),
@@ -653,7 +654,7 @@ LAYOUTS = {
     PlanRequest: (584, 8, (("header", 0, 48), ("request_id", 48, 8), ("start", 56, 24), ("goal", 80, 24), ("footprint_length", 104, 8), ("footprint_width", 112, 8), ("margin", 120, 8), ("use_detections", 128, 4), ("max_expansions", 132, 4), ("timeout_ms", 136, 4), ("dock", 140, 4), ("free_heading", 144, 4), ("_pad", 148, 4), ("body", 152, 48), ("parts", 200, 384), )),
     PlanResponse: (131168, 8, (("header", 0, 48), ("request_id", 48, 8), ("status", 56, 4), ("expansions", 60, 4), ("solve_ns", 64, 8), ("path_length", 72, 8), ("len", 80, 4), ("straight", 84, 4), ("split", 88, 4), ("_pad", 92, 4), ("poses", 96, 131072), )),
     ControllerGoal: (131232, 8, (("header", 0, 48), ("goal_id", 48, 8), ("mode", 56, 4), ("len", 60, 4), ("footprint_length", 64, 8), ("footprint_width", 72, 8), ("margin", 80, 8), ("goal_tolerance", 88, 24), ("max_velocity", 112, 16), ("look_ahead_time", 128, 8), ("target", 136, 24), ("reference", 160, 131072), )),
-    Trajectory: (28784, 8, (("header", 0, 48), ("goal_id", 48, 8), ("start_ns", 56, 8), ("len", 64, 4), ("poses_len", 68, 4), ("exit_flag", 72, 4), ("last_feasible_index", 76, 4), ("reached_goal", 80, 4), ("iterations", 84, 4), ("cost", 88, 8), ("solve_ns", 96, 8), ("max_violation", 104, 8), ("commands", 112, 12288), ("poses", 12400, 16384), )),
+    Trajectory: (28792, 8, (("header", 0, 48), ("goal_id", 48, 8), ("start_ns", 56, 8), ("inputs_tick", 64, 8), ("len", 72, 4), ("poses_len", 76, 4), ("exit_flag", 80, 4), ("last_feasible_index", 84, 4), ("reached_goal", 88, 4), ("iterations", 92, 4), ("cost", 96, 8), ("solve_ns", 104, 8), ("max_violation", 112, 8), ("commands", 120, 12288), ("poses", 12408, 16384), )),
     ControllerBand: (20560, 8, (("header", 0, 48), ("goal_id", 48, 8), ("len", 56, 4), ("section", 60, 4), ("progress", 64, 8), ("detour_side", 72, 4), ("_pad", 76, 4), ("poses", 80, 16384), ("dts", 16464, 4096), )),
     TimedTwistMsg: (24, 8, (("offset_ns", 0, 8), ("v", 8, 8), ("w", 16, 8), )),
     SimState: (18792, 8, (("header", 0, 48), ("next_tick", 48, 8), ("time_ns", 56, 8), ("pose", 64, 24), ("twist", 88, 16), ("wheels", 104, 16), ("watchdog_stopped", 120, 1), ("wheels_clamped", 121, 1), ("_pad", 122, 2), ("carried_body", 124, 4), ("carried_offset", 128, 24), ("collisions", 152, 8), ("min_clearance", 160, 8), ("last_command_id", 168, 8), ("last_trajectory_seq", 176, 8), ("last_trajectory_tick", 184, 8), ("last_stop_tick", 192, 8), ("bodies_len", 200, 4), ("timeline_len", 204, 4), ("timeline_start_ns", 208, 8), ("timeline_expiry_ns", 216, 8), ("contacts_len", 224, 4), ("contacts", 228, 128), ("_pad_contacts", 356, 4), ("body_poses", 360, 6144), ("timeline", 6504, 12288), )),

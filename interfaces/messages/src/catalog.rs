@@ -296,11 +296,15 @@ message!(
 message!(
     /// One controller step: a timeline of commands starting at `start_ns` (simulated),
     /// the predicted poses, and MATLAB controllerTEB's info record.
-    Trajectory = "aisle.Trajectory.v1" size 28784 {
+    Trajectory = "aisle.Trajectory.v2" size 28792 {
         header: Header,
         goal_id: u64,
         /// Simulated time at which `commands[0].t` = 0 applies.
         start_ns: u64,
+        /// The oldest tick among the inputs the step acted on (its local map and robot
+        /// state). After a stop stamped with tick s the simulator drives a trajectory only
+        /// if this is after s: made from what was sensed after the stop, not before it.
+        inputs_tick: u64,
         len: u32,
         poses_len: u32,
         /// 0 valid, 1 collision, 2 margin, 3 turning radius, 4 time not increasing, 5 off

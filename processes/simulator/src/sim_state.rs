@@ -21,7 +21,9 @@ pub(crate) struct Applied {
     pub command_id: u64,
     pub trajectory: (u64, u64),
     /// The tick stamped on the last `Stop` (u64::MAX: none): a trajectory of that tick
-    /// or older was computed before the stop and must not start the robot again.
+    /// or older was computed before the stop, and one of a later tick from inputs of
+    /// that tick or older acts on what was sensed before it (a hung mapper's last map,
+    /// young enough for the controller's age limit): neither starts the robot again.
     pub stop_tick: u64,
 }
 
@@ -37,7 +39,8 @@ impl Default for Applied {
 
 impl Applied {
     pub(crate) fn drives(&self, traj: &Trajectory) -> bool {
-        self.stop_tick == u64::MAX || traj.header.tick > self.stop_tick
+        self.stop_tick == u64::MAX
+            || (traj.header.tick > self.stop_tick && traj.inputs_tick > self.stop_tick)
     }
 }
 
@@ -202,4 +205,32 @@ fn bodies_of(world: &World, m: &SimState) -> Result<(Vec<Pose2>, Vec<bool>), Nod
         *flag = true;
     }
     Ok((poses, in_contact))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A trajectory made on controller tick `tick` from inputs of tick `inputs`.
+    fn trajectory(tick: u64, inputs: u64) -> Box<Trajectory> {
+        let mut t: Box<Trajectory> = aisle_messages::zeroed_box();
+        t.header.tick = tick;
+        t.inputs_tick = inputs;
+        t
+    }
+
+    #[test]
+    fn after_a_stop_only_a_trajectory_from_later_inputs_drives() {
+        let mut applied = Applied::default();
+        assert!(applied.drives(&trajectory(3, 1)), "no stop yet");
+        applied.stop_tick = 10;
+        assert!(
+            !applied.drives(&trajectory(10, 10)),
+            "made on the stop's tick"
+        );
+        // A later step on a map sensed before the stop (a hung mapper's last one).
+        assert!(!applied.drives(&trajectory(15, 8)));
+        assert!(!applied.drives(&trajectory(15, 10)));
+        assert!(applied.drives(&trajectory(15, 11)));
+    }
 }

@@ -12,7 +12,9 @@
 //! `teb.toml`'s `inputs.max_age` (sim time since its tick; in realtime also wall time
 //! since its tick started) is not acted on: the trajectory is a zero command with exit
 //! flag [`EXIT_STALE_INPUT`], so a hung lidar or mapper never leaves the robot driving
-//! on a frozen map.
+//! on a frozen map. Each trajectory also names the oldest tick of its inputs
+//! (`inputs_tick`): a simulator stopped for a hung node drives none made from inputs
+//! sensed before the stop, however young they were when the step ran.
 //!
 //! Adapter only: the optimisation is [`crate::TebController`]; the loop around it is
 //! the node runtime's (`aisle_node::run`).
@@ -37,6 +39,7 @@ pub const EXIT_STALE_INPUT: u32 = 7;
 /// When an input was produced: its tick's sim time and the wall time that tick started.
 #[derive(Debug, Clone, Copy, Default)]
 struct Produced {
+    tick: u64,
     stamp_ns: u64,
     tick_wall_ns: u64,
 }
@@ -44,6 +47,7 @@ struct Produced {
 impl Produced {
     fn of(h: &aisle_messages::Header) -> Produced {
         Produced {
+            tick: h.tick,
             stamp_ns: h.stamp_ns,
             tick_wall_ns: h.tick_wall_ns,
         }
@@ -251,11 +255,13 @@ fn fill_trajectory(
     step: &Outcome,
     goal_id: u64,
     start_ns: u64,
+    inputs_tick: u64,
     compute_ns: u64,
 ) {
     let now_s = start_ns as f64 * 1e-9;
     t.goal_id = goal_id;
     t.start_ns = start_ns;
+    t.inputs_tick = inputs_tick;
     t.solve_ns = compute_ns;
     match step {
         Outcome::Step(Ok(out)) => {
@@ -408,6 +414,7 @@ impl Stage for ControllerStage {
         let stamp = Stamp::of(&tick.header);
         let start_ns = tick.header.stamp_ns;
         let goal_id = self.task.goal_id;
+        let inputs_tick = self.map_made.tick.min(self.state_made.tick);
         let step = self.step(tick);
         let stale = match &step {
             Outcome::Stale(why) => Some(why.clone()),
@@ -423,7 +430,7 @@ impl Stage for ControllerStage {
         };
         let compute_ns = timer.elapsed_ns();
         io.publish(topics::TRAJECTORY, stamp, |t| {
-            fill_trajectory(t, &step, goal_id, start_ns, compute_ns)
+            fill_trajectory(t, &step, goal_id, start_ns, inputs_tick, compute_ns)
         })?;
         self.note_staleness(stale, stepped, k);
         let snap = self.teb.snapshot();
@@ -552,6 +559,36 @@ mod tests {
             speed > 0.0 && len > 1,
             "flag {flag}, |v|+|w| {speed}, {len} commands"
         );
+    }
+
+    #[test]
+    fn a_trajectory_names_the_oldest_tick_of_its_inputs() {
+        let (mut s, io) = (stage(), MemIo::new());
+        // Realtime: the newest map is of tick 18 (the mapper a tick behind), the state
+        // of tick 20; both young enough to step on.
+        s.mode = TickMode::Realtime;
+        rotate_task(&io, 18, 1.8, 2.0);
+        io.push(topics::ROBOT_STATE, |r| {
+            r.header.tick = 20;
+            r.header.stamp_ns = 2_000_000_000;
+            r.header.tick_wall_ns = aisle_bus::clock::monotonic_ns();
+        });
+        io.push(topics::LOCAL_MAP, |m| {
+            m.header.tick = 18;
+            m.header.stamp_ns = 1_800_000_000;
+            m.header.tick_wall_ns = aisle_bus::clock::monotonic_ns();
+            m.width = 40;
+            m.height = 40;
+            m.resolution = 0.1;
+            m.origin_x = -2.0;
+            m.origin_y = -2.0;
+        });
+        s.process(&tick(20, STAGE_CONTROLLER), &io).unwrap();
+        let (flag, inputs) = io
+            .published(topics::TRAJECTORY, 0, |t| (t.exit_flag, t.inputs_tick))
+            .unwrap();
+        assert_ne!(flag, EXIT_STALE_INPUT);
+        assert_eq!(inputs, 18);
     }
 
     /// A straight move from the origin to (1, 0) heading +x, and a free local map and
