@@ -115,10 +115,11 @@ fn a_carrying_footprint_overlapping_a_static_body_is_refused() {
 
 #[test]
 fn a_turn_in_place_needs_its_turning_circle_clear() {
-    // Facing along rack_row_2 0.3 m from it the robot fits; turning, its corners reach in.
+    // Facing along rack_row_2 0.32 m from it the robot fits (its half-width and the
+    // least margin, 0.315 m); turning, its corners reach in (0.333 m).
     let f = Fixture::shipped("turn");
-    let legs = "[[leg]]\nname = \"beside the row\"\ngoal = [4.2, 10.0, 1.5707963267948966]\n\n\
-                [[leg]]\nname = \"turn\"\ngoal = [4.2, 10.0, -1.5707963267948966]\nrotate = true\n";
+    let legs = "[[leg]]\nname = \"beside the row\"\ngoal = [4.18, 10.0, 1.5707963267948966]\n\n\
+                [[leg]]\nname = \"turn\"\ngoal = [4.18, 10.0, -1.5707963267948966]\nrotate = true\n";
     refused(
         &f,
         &mission(legs),
@@ -362,20 +363,20 @@ fn a_start_in_the_maps_boundary_band_is_refused() {
 
 #[test]
 fn a_stated_heading_that_puts_the_robot_in_the_band_is_refused() {
-    // 0.28 m from the east band (x >= 14): across, the robot's half-width and the least
-    // margin fit (0.265 m); along, its half-length does not (0.304 m).
+    // 0.33 m from the east band (x >= 14): across, the robot's half-width and the least
+    // margin fit (0.315 m); along, its half-length does not (0.354 m).
     let f = Fixture::shipped("band-heading");
     refused(
         &f,
-        &mission("[[leg]]\nname = \"by the wall\"\ngoal = [13.72, 2.0, 0.0]\n"),
+        &mission("[[leg]]\nname = \"by the wall\"\ngoal = [13.67, 2.0, 0.0]\n"),
         &[
             "key `leg[0].goal`",
-            "at the goal (13.72, 2, 0) of leg `by the wall`",
+            "at the goal (13.67, 2, 0) of leg `by the wall`",
             "touches occupied cells of the static map",
         ],
     );
     f.check(&mission(
-        "[[leg]]\nname = \"by the wall\"\ngoal = [13.72, 2.0, 1.5707963267948966]\n",
+        "[[leg]]\nname = \"by the wall\"\ngoal = [13.67, 2.0, 1.5707963267948966]\n",
     ))
     .unwrap();
 }

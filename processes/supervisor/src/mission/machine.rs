@@ -11,14 +11,15 @@ use super::events::{Action, ControllerReport, DockBody, LegResult, PlanFailure, 
 use aisle_geometry::{Footprint, PathPose, Pose2};
 
 /// The smallest fraction of the margin a backing-off plan keeps (a halving, then 3/8).
-/// It bounds how close a reduced-margin plan takes the robot to what its lidar saw,
-/// and what the lidar saw is not all there is: an EUR pallet's 0.144 m base, below the
-/// lowest ray, sticks out 0.1 m beyond its load. A quarter of the carrying margin
-/// (0.1 m) let a sweep's robot carry its rack into such a base past the stack it had
-/// seen; 3/8 keeps 0.15 m, the overhang and half a map cell.
 const MIN_MARGIN_SCALE: f64 = 0.375;
-/// The smallest margin, m, a backing-off plan keeps.
-const MIN_BACKED_OFF_MARGIN: f64 = 0.05;
+/// The smallest margin, m, a backing-off plan keeps. It bounds how close a
+/// reduced-margin plan takes the robot to what its lidar saw, and what the lidar saw is
+/// not all there is: an EUR pallet's 0.144 m base, below the lowest ray, sticks out
+/// 0.1 m beyond its load. So 0.15 m, the overhang and half a map cell. Sweeps drove into
+/// such bases with less: carrying a rack with a quarter of its 0.4 m margin (seed 7
+/// `093-gap`), and alone with half of its 0.1 m (seed 29 `165-gap`, at 2 m/s). A load
+/// whose full margin is no more than this (the robot alone, 0.1 m) never backs off.
+const MIN_BACKED_OFF_MARGIN: f64 = 0.15;
 
 /// Footprint and safety margin with and without the carried rack.
 #[derive(Debug, Clone, Copy)]
@@ -199,9 +200,7 @@ impl Mission {
     /// The footprint and margin of the current load (the margin scaled down while
     /// backing off).
     fn footprint(&self) -> (Footprint, f64) {
-        // Backing off never goes below MIN_BACKED_OFF_MARGIN: the controller's grid
-        // (0.1 m cells) and soft constraints need some room (a sweep measured contacts
-        // with 0.025 m).
+        // Backing off never goes below MIN_BACKED_OFF_MARGIN: what the lidar cannot see.
         let scaled = |m: f64| backoff::scaled_margin(m, self.margin_scale);
         if self.carrying {
             let margin = scaled(self.footprints.carrying_margin);

@@ -70,8 +70,11 @@ mod tests {
     fn backing_off_keeps_what_the_lidar_cannot_see() {
         // Carrying (0.4 m): 0.15 m, a pallet base's 0.1 m overhang and half a cell.
         assert_eq!(least_margin(0.4), 0.15);
-        // Alone (0.1 m): the 0.05 m floor; below it, the margin itself.
-        assert!((least_margin(0.1) - 0.05).abs() < 1e-12);
-        assert!((least_margin(0.04) - 0.04).abs() < 1e-12);
+        // A larger margin: 3/8 of it.
+        assert_eq!(least_margin(0.8), 0.3);
+        // Alone (0.1 m), or any margin up to the 0.15 m floor: the margin itself.
+        assert_eq!(least_margin(0.1), 0.1);
+        assert_eq!(least_margin(0.15), 0.15);
+        assert_eq!(least_margin(0.04), 0.04);
     }
 }

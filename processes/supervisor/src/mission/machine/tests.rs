@@ -418,9 +418,16 @@ fn a_pick_docks_straight_and_the_leg_after_the_drop_undocks_first() {
     assert!(m.succeeded());
 }
 
+/// The seed's mission with the robot alone keeping `margin`.
+fn mission_alone_margin(margin: f64) -> Mission {
+    let mut m = mission();
+    m.footprints.alone_margin = margin;
+    m
+}
+
 #[test]
 fn a_start_inside_the_margin_backs_off_with_a_smaller_margin_then_fails() {
-    let mut m = mission();
+    let mut m = mission_alone_margin(0.3);
     let p = Pose2::default();
     m.start_leg(0.0, p);
     let blocked = || PlanFailure {
@@ -429,11 +436,11 @@ fn a_start_inside_the_margin_backs_off_with_a_smaller_margin_then_fails() {
     };
     let a = m.on_plan(0.0, p, Err(blocked()));
     assert!(
-        matches!(a[0], Action::Plan { margin, use_detections: true, .. } if (margin - 0.05).abs() < 1e-12),
+        matches!(a[0], Action::Plan { margin, use_detections: true, .. } if (margin - 0.15).abs() < 1e-12),
         "{a:?}"
     );
-    // Never below 0.05 m (the controller needs the room): failing there too ends the
-    // leg (it had no reference yet).
+    // Never below 0.15 m (what the lidar cannot see): failing there too ends the leg (it
+    // had no reference yet).
     assert_eq!(m.on_plan(0.0, p, Err(blocked())), vec![Action::Halt]);
     assert!(m.failure().unwrap().contains("start is in collision"));
     // The report counts both: one retry with less margin, one failure.
@@ -442,8 +449,24 @@ fn a_start_inside_the_margin_backs_off_with_a_smaller_margin_then_fails() {
 }
 
 #[test]
-fn a_reduced_margin_lasts_until_the_robot_is_clear_of_the_spot() {
+fn a_margin_no_larger_than_the_floor_is_never_backed_off() {
+    // The robot alone keeps 0.1 m, less than an unseen pallet base's overhang and half a
+    // cell: a plan the margin blocks ends the leg at once.
     let mut m = mission();
+    let p = Pose2::default();
+    m.start_leg(0.0, p);
+    let blocked = PlanFailure {
+        why: "the search ran out of time".into(),
+        margin_bound: true,
+    };
+    assert_eq!(m.on_plan(0.0, p, Err(blocked)), vec![Action::Halt]);
+    let leg = &m.results[0];
+    assert_eq!((leg.margin_backoffs, leg.plan_failures), (0, 1), "{leg:?}");
+}
+
+#[test]
+fn a_reduced_margin_lasts_until_the_robot_is_clear_of_the_spot() {
+    let mut m = mission_alone_margin(0.3);
     let p = Pose2::default();
     m.start_leg(0.0, p);
     let blocked = PlanFailure {
@@ -453,7 +476,7 @@ fn a_reduced_margin_lasts_until_the_robot_is_clear_of_the_spot() {
     m.on_plan(0.0, p, Err(blocked));
     let a = m.on_plan(0.1, p, Ok(Planned::plain(path())));
     assert!(
-        matches!(a[0], Action::Follow { margin, .. } if (margin - 0.05).abs() < 1e-12),
+        matches!(a[0], Action::Follow { margin, .. } if (margin - 0.15).abs() < 1e-12),
         "{a:?}"
     );
     // Still near where the backing off began: the reduced plan is driven on.
@@ -461,7 +484,7 @@ fn a_reduced_margin_lasts_until_the_robot_is_clear_of_the_spot() {
     // Clear of it: a plan with the full margin.
     let a = m.on_tick(1.1, Pose2::new(1.0, 0.0, 0.0));
     assert!(
-        matches!(a[..], [Action::Plan { margin, use_detections: true, .. }] if (margin - 0.1).abs() < 1e-12),
+        matches!(a[..], [Action::Plan { margin, use_detections: true, .. }] if (margin - 0.3).abs() < 1e-12),
         "{a:?}"
     );
     // Driven with the full margin, the leg asks for nothing more.
@@ -583,7 +606,9 @@ fn a_reached_report_away_from_the_legs_goal_plans_again() {
 /// m from its goal.
 #[test]
 fn a_move_out_driven_on_after_a_failed_replan_does_not_end_the_leg() {
-    let mut m = mission();
+    // A margin to back off from, as the sweep's robot had then (the first replan backs
+    // off, the second fails).
+    let mut m = mission_alone_margin(0.3);
     m.cfg.leg[1].goal = [1.0, 0.0, 0.0];
     m.cfg.leg[1].goal_given = Some([1.0, 0.0, 0.0]);
     m.cfg.max_replans_per_leg = 5;
