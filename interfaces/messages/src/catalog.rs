@@ -284,7 +284,8 @@ message!(
         margin: f64,
         /// x, y, heading tolerances to count the goal as reached.
         goal_tolerance: [f64; 3],
-        /// Linear and angular speed limits for this goal.
+        /// Linear and angular speed limits for this goal (m/s, rad/s): the lower of these
+        /// and the controller's own apply; zero (or anything not positive) leaves its own.
         max_velocity: [f64; 2],
         look_ahead_time: f64,
         /// Final pose (the rotate-in-place target heading is `target.theta`).

@@ -6,7 +6,8 @@
 //! [`TebController::step`] on its own schedule. The phases of a step live in `leg.rs`
 //! (where along the task), `planner.rs` (the band) and `objective/` (what is optimised).
 //! A straight move (docking) is not optimised: `straight.rs` rolls it out, without a
-//! band. The goal tolerance is the goal's own, or `band.goal_tolerance` without one.
+//! band. The goal tolerance is the goal's own, or `band.goal_tolerance` without one;
+//! the speed limits are the lower of `teb.toml`'s and the task's (`set_speed_limit`).
 //! Where the optimised band collides and the robot is no faster than a straight move,
 //! the reference itself (what the global planner found free), timed at that move's
 //! speed, is judged by the same rules and driven if it does not collide: the
@@ -44,7 +45,9 @@ pub struct Snapshot {
 
 /// Timed-elastic-band local controller.
 pub struct TebController {
+    /// The configuration steps use: `configured` with the task's speed limit.
     cfg: TebConfig,
+    configured: TebConfig,
     active: Option<Active>,
     planner: Planner,
     /// The reference band driven at `straight.speed` when the optimised one collides
@@ -96,6 +99,7 @@ impl TebController {
         aisle_config::Validate::validate(&cfg)?;
         let n = cfg.band.max_poses;
         Ok(TebController {
+            configured: cfg.clone(),
             cfg,
             active: None,
             planner: Planner::new(n),
@@ -121,6 +125,27 @@ impl TebController {
         }
         self.active = Some(Active::new(goal));
         self.planner.clear();
+        Ok(())
+    }
+
+    /// Lowers the speed limits to `limit` (linear m/s, angular rad/s, each positive and
+    /// finite) until the next call; `None` restores `teb.toml`'s. The lower of the two
+    /// applies to each, forwards and backwards, and to straight moves.
+    pub fn set_speed_limit(&mut self, limit: Option<[f64; 2]>) -> Result<(), crate::TebError> {
+        let mut cfg = self.configured.clone();
+        if let Some([v, w]) = limit {
+            if !(v.is_finite() && v > 0.0 && w.is_finite() && w > 0.0) {
+                return Err(crate::TebError::InvalidGoal(format!(
+                    "speed limit [{v}, {w}] is not two positive numbers"
+                )));
+            }
+            let l = &mut cfg.limits;
+            l.max_velocity = l.max_velocity.min(v);
+            l.max_reverse_velocity = l.max_reverse_velocity.min(v);
+            l.max_angular_velocity = l.max_angular_velocity.min(w);
+            cfg.straight.speed = cfg.straight.speed.min(v);
+        }
+        self.cfg = cfg;
         Ok(())
     }
 

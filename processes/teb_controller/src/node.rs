@@ -4,7 +4,8 @@
 //!
 //! Goals come from the supervisor (`ControllerGoal`, history 1): a new `goal_id`
 //! replaces the task; `Idle` clears it. A goal's `goal_tolerance` is used when it
-//! holds three positive numbers, else `teb.toml`'s `band.goal_tolerance`. Without a
+//! holds three positive numbers, else `teb.toml`'s `band.goal_tolerance`; its
+//! `max_velocity`, when two positive numbers, lowers `teb.toml`'s limits. Without a
 //! task, or when a step fails, the trajectory is a single zero command, so the robot
 //! stops.
 //!
@@ -19,7 +20,7 @@
 //! Adapter only: the optimisation is [`crate::TebController`]; the loop around it is
 //! the node runtime's (`aisle_node::run`).
 
-use crate::resume::{goal_of, snapshot_of};
+use crate::resume::{goal_of, snapshot_of, speed_limit_of};
 use crate::{Snapshot, StepOutput, TebConfig, TebController};
 use aisle_bus::{NodeArgs, NodeError, StageTimer, Stamp};
 use aisle_geometry::Pose2;
@@ -177,6 +178,9 @@ impl ControllerStage {
         {
             self.task.goal_id = g.goal_id;
             self.task.active = false;
+            if let Err(e) = self.teb.set_speed_limit(speed_limit_of(&g)) {
+                tracing::warn!("teb_controller: goal {}: {e}", g.goal_id);
+            }
             match goal_of(&g) {
                 None => self.teb.clear_goal(),
                 Some(Ok(goal)) => match self.teb.set_goal(&goal) {
@@ -643,6 +647,18 @@ mod tests {
         ] {
             g.goal_tolerance = bad;
             assert_eq!(goal_of(&g).unwrap().unwrap().tolerance, None, "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn a_goal_s_max_velocity_is_its_speed_limit_when_two_positive_numbers() {
+        let mut g = *aisle_messages::zeroed_box::<ControllerGoal>();
+        assert_eq!(speed_limit_of(&g), None, "an older sender leaves it zero");
+        g.max_velocity = [0.5, 0.3];
+        assert_eq!(speed_limit_of(&g), Some([0.5, 0.3]));
+        for bad in [[0.5, 0.0], [-1.0, 1.0], [f64::INFINITY, 1.0]] {
+            g.max_velocity = bad;
+            assert_eq!(speed_limit_of(&g), None, "{bad:?}");
         }
     }
 

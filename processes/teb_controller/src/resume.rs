@@ -57,6 +57,23 @@ pub(crate) fn tolerance_of(msg: &ControllerGoal) -> Option<[f64; 3]> {
     None
 }
 
+/// The goal's own speed limits (`max_velocity`: linear, angular) when the sender filled
+/// them in (two positive finite numbers); otherwise `None`, and `teb.toml`'s apply.
+pub fn speed_limit_of(msg: &ControllerGoal) -> Option<[f64; 2]> {
+    let limit = msg.max_velocity;
+    if limit.iter().all(|v| v.is_finite() && *v > 0.0) {
+        return Some(limit);
+    }
+    if limit.iter().any(|v| *v != 0.0) {
+        tracing::warn!(
+            "teb_controller: goal {}: max_velocity {limit:?} is not two positive numbers; \
+             using teb.toml's limits",
+            msg.goal_id
+        );
+    }
+    None
+}
+
 /// The band a `ControllerBand` holds, bit for bit (its `dts` are the band's own).
 pub fn snapshot_of(b: &ControllerBand) -> Snapshot {
     let n = (b.len as usize).min(MAX_COMMANDS);

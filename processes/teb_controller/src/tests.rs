@@ -732,3 +732,48 @@ fn a_final_rotation_ends_even_when_the_offset_leaves_the_rotated_tolerance_box()
         run.final_pose
     );
 }
+
+#[test]
+fn a_task_speed_limit_caps_every_command_and_lifting_it_restores_the_configured_ones() {
+    let goal = follow(straight_path(0.0, 10.0, 0.0), ROBOT, 0.1);
+    // Drives the goal in closed loop; the fastest |v| and |w| commanded, and whether it
+    // was reached.
+    let fastest = |limit: Option<[f64; 2]>| {
+        let mut teb = TebController::new(TebConfig::default()).unwrap();
+        teb.set_speed_limit(limit).unwrap();
+        teb.set_goal(&goal).unwrap();
+        let (mut pose, mut v, mut w, mut t) = (Pose2::new(0.0, 0.0, 0.0), 0.0, 0.0, 0.0);
+        let (mut top_v, mut top_w) = (0.0_f64, 0.0_f64);
+        for _ in 0..80 {
+            let map = local_map(&pose, &vec![]);
+            let out = teb.step(pose, (v, w), t, &map.view()).unwrap();
+            if out.reached_goal {
+                return (top_v, top_w, true);
+            }
+            let commands = out.commands.clone();
+            for k in 0..50 {
+                let (cv, cw) = crate::command_at(&commands, t + k as f64 * 0.01 + 1e-9);
+                (top_v, top_w) = (top_v.max(cv.abs()), top_w.max(cw.abs()));
+                pose = unicycle(&pose, cv, cw, 0.01);
+                (v, w) = (cv, cw);
+            }
+            t += PERIOD;
+        }
+        (top_v, top_w, false)
+    };
+    let (v, w, reached) = fastest(Some([0.5, 0.3]));
+    assert!(reached, "not reached at 0.5 m/s");
+    assert!(
+        v <= 0.5 + 1e-9 && v > 0.45 && w <= 0.3 + 1e-9,
+        "v {v}, w {w}"
+    );
+    // teb.toml's 2 m/s again: the same 10 m much faster.
+    let (v, _, reached) = fastest(None);
+    assert!(reached && v > 1.5, "v {v}");
+    // A limit above teb.toml's changes nothing; one that is not positive is refused.
+    let mut teb = TebController::new(TebConfig::default()).unwrap();
+    teb.set_speed_limit(Some([5.0, 5.0])).unwrap();
+    assert_eq!(teb.config().limits.max_velocity, 2.0);
+    assert!(teb.set_speed_limit(Some([0.0, 1.0])).is_err());
+    assert!(teb.set_speed_limit(Some([f64::NAN, 1.0])).is_err());
+}

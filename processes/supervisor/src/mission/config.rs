@@ -32,6 +32,9 @@ pub struct LegSpec {
     /// Drive this far straight ahead before heading for the goal (metres): how the
     /// robot leaves from under a rack it has just set down.
     pub depart: Option<f64>,
+    /// Speed limits for this leg, [m/s, rad/s]: the lower of these and `teb.toml`'s
+    /// `limits` apply (every move of the leg, forwards and backwards).
+    pub max_velocity: Option<[f64; 2]>,
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -295,6 +298,16 @@ impl LegSpec {
                 format!("must be within (0, 5] metres, got {d:?}"),
             ));
         }
+        if let Some(limit) = self.max_velocity
+            && !limit
+                .iter()
+                .all(|v| v.is_finite() && *v > 0.0 && *v <= 100.0)
+        {
+            return Err(bad(
+                &format!("leg[{i}].max_velocity"),
+                format!("must be two speeds within (0, 100] (m/s, rad/s), got {limit:?}"),
+            ));
+        }
         if self.rotate && self.depart.is_some() {
             return Err(bad(
                 &format!("leg[{i}].depart"),
@@ -380,6 +393,16 @@ mod tests {
                 "replan_cooldown_steps = 4000000000",
                 "replan_cooldown_steps",
             ),
+            (
+                "approach = \"rack2b\"",
+                "approach = \"rack2b\"\nmax_velocity = [0.0, 1.0]",
+                "leg[0].max_velocity",
+            ),
+            (
+                "approach = \"rack2b\"",
+                "approach = \"rack2b\"\nmax_velocity = [1.0, nan]",
+                "leg[0].max_velocity",
+            ),
         ] {
             let e = load_with(from, to).unwrap_err();
             assert!(
@@ -387,6 +410,12 @@ mod tests {
                 "{to}: {e}"
             );
         }
+        let slow = load_with(
+            "approach = \"rack2b\"",
+            "approach = \"rack2b\"\nmax_velocity = [0.5, 0.4]",
+        )
+        .unwrap();
+        assert_eq!(slow.leg[0].max_velocity, Some([0.5, 0.4]));
         // A heading written as a full turn, and the widest tolerances, still load.
         load_with(
             "goal = [6.0, 8.0, 1.5707963267948966]",

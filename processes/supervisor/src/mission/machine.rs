@@ -193,6 +193,11 @@ impl Mission {
         &self.cfg.leg[self.leg]
     }
 
+    /// The current leg's speed limits (`max_velocity` of its spec), if it sets them.
+    pub fn speed_limit(&self) -> Option<[f64; 2]> {
+        self.cfg.leg.get(self.leg).and_then(|l| l.max_velocity)
+    }
+
     fn goal(&self) -> Pose2 {
         self.departure.unwrap_or_else(|| self.leg_goal())
     }

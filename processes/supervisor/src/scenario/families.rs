@@ -218,6 +218,7 @@ pub fn mission(g: &Ground, rng: &mut ChaCha8Rng, d: &mut Draft) -> bool {
         carry: None,
         approach: None,
         depart: None,
+        max_velocity: None,
     });
     d.varied
         .push(format!("mission: {said}, park at {}", xy(&park)));
@@ -242,6 +243,7 @@ fn pick_legs(rng: &mut ChaCha8Rng, rack: &aisle_config::scene::Body) -> (Vec<Leg
         carry: None,
         approach: Some(name.clone()),
         depart: None,
+        max_velocity: None,
     }];
     let mut said = match entry {
         Some(h) => format!("pick {name} heading {:.4}", rad(h)),
@@ -257,6 +259,7 @@ fn pick_legs(rng: &mut ChaCha8Rng, rack: &aisle_config::scene::Body) -> (Vec<Leg
             carry: None,
             approach: Some(name.clone()),
             depart: None,
+            max_velocity: None,
         });
         said.push_str(&format!(", turn to {h:.4}"));
     }
@@ -294,5 +297,6 @@ fn carry_leg(name: &str, rack: &str, to: Pose2) -> Leg {
         carry: Some(rack.into()),
         approach: None,
         depart: None,
+        max_velocity: None,
     }
 }

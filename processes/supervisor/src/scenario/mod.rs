@@ -90,6 +90,7 @@ pub struct Leg {
     pub carry: Option<String>,
     pub approach: Option<String>,
     pub depart: Option<f64>,
+    pub max_velocity: Option<[f64; 2]>,
 }
 
 /// A body the generator adds: one box standing on the floor.
@@ -128,6 +129,7 @@ impl Draft {
                 carry: l.carry.clone(),
                 approach: l.approach.clone(),
                 depart: l.depart,
+                max_velocity: l.max_velocity,
             })
             .collect();
         let start = g.mission.start_pose();

@@ -166,6 +166,12 @@ fn leg(l: &Leg) -> Table {
     if let Some(d) = l.depart {
         t.insert("depart".into(), d.into());
     }
+    if let Some(v) = l.max_velocity {
+        t.insert(
+            "max_velocity".into(),
+            Value::Array(v.iter().map(|&v| v.into()).collect()),
+        );
+    }
     t
 }
 

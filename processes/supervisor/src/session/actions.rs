@@ -222,9 +222,12 @@ impl Session {
         self.goal_id += 1;
         let id = self.goal_id;
         let stamp = self.stamp();
+        // Zero: teb.toml's limits.
+        let speed_limit = self.mission.speed_limit().unwrap_or([0.0; 2]);
         self.health.goal.publish(stamp, |m| {
             m.goal_id = id;
             m.mode = mode as u32;
+            m.max_velocity = speed_limit;
             m.len = reference.len() as u32;
             m.footprint_length = to.footprint.length;
             m.footprint_width = to.footprint.width;

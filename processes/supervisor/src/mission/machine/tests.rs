@@ -25,6 +25,7 @@ fn mission() -> Mission {
                 carry: None,
                 approach: Some("rack".into()),
                 depart: None,
+                max_velocity: None,
             },
             LegSpec {
                 name: "b".into(),
@@ -35,6 +36,7 @@ fn mission() -> Mission {
                 carry: None,
                 approach: None,
                 depart: None,
+                max_velocity: None,
             },
             LegSpec {
                 name: "c".into(),
@@ -45,6 +47,7 @@ fn mission() -> Mission {
                 carry: Some("rack".into()),
                 approach: None,
                 depart: None,
+                max_velocity: None,
             },
         ],
     };
@@ -288,6 +291,7 @@ fn push_leg_d(m: &mut Mission) {
         carry: None,
         approach: None,
         depart: None,
+        max_velocity: None,
     });
 }
 
@@ -649,4 +653,14 @@ fn a_move_out_driven_on_after_a_failed_replan_does_not_end_the_leg() {
         "{a:?}"
     );
     assert_eq!(m.results.len(), 3, "leg d is not over: {:?}", m.results);
+}
+
+#[test]
+fn a_legs_speed_limit_goes_with_its_goals() {
+    let mut m = mission();
+    m.cfg.leg[2].max_velocity = Some([0.5, 0.4]);
+    m.start_leg(0.0, Pose2::default());
+    assert_eq!(m.speed_limit(), None);
+    m.leg = 2;
+    assert_eq!(m.speed_limit(), Some([0.5, 0.4]));
 }
