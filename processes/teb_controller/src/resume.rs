@@ -59,7 +59,7 @@ pub(crate) fn tolerance_of(msg: &ControllerGoal) -> Option<[f64; 3]> {
 
 /// The goal's own speed limits (`max_velocity`: linear, angular) when the sender filled
 /// them in (two positive finite numbers); otherwise `None`, and `teb.toml`'s apply.
-pub fn speed_limit_of(msg: &ControllerGoal) -> Option<[f64; 2]> {
+pub(crate) fn speed_limit_of(msg: &ControllerGoal) -> Option<[f64; 2]> {
     let limit = msg.max_velocity;
     if limit.iter().all(|v| v.is_finite() && *v > 0.0) {
         return Some(limit);
