@@ -48,7 +48,7 @@ fn pinned_offsets_of_the_wire_header_and_large_payloads() {
     assert_eq!(off(Header::FIELDS, "source"), 40);
     assert_eq!(off(PointCloud::FIELDS, "points"), 136);
     assert_eq!(off(OccupancyGrid::FIELDS, "cells"), 96);
-    assert_eq!(off(Trajectory::FIELDS, "commands"), 112);
+    assert_eq!(off(Trajectory::FIELDS, "commands"), 120);
     assert_eq!(off(ControllerGoal::FIELDS, "reference"), 160);
     assert_eq!(core::mem::size_of::<PointCloud>(), 1_573_000);
     const { assert!(MAX_CLOUD_POINTS >= 31 * 1201, "the seed's lidar must fit") };
