@@ -43,32 +43,41 @@ pub fn goal_of(msg: &ControllerGoal) -> Option<Result<Goal, String>> {
 /// numbers); otherwise `None`, and the controller uses `teb.toml`'s
 /// `band.goal_tolerance` (an older sender leaves the field zero).
 pub(crate) fn tolerance_of(msg: &ControllerGoal) -> Option<[f64; 3]> {
-    let tol = msg.goal_tolerance;
-    if tol.iter().all(|t| t.is_finite() && *t > 0.0) {
-        return Some(tol);
-    }
-    if tol.iter().any(|t| *t != 0.0) {
-        tracing::warn!(
-            "teb_controller: goal {}: goal_tolerance {tol:?} is not three positive \
-             numbers; using teb.toml band.goal_tolerance",
-            msg.goal_id
-        );
-    }
-    None
+    own_or_configured(
+        msg.goal_tolerance,
+        msg.goal_id,
+        "goal_tolerance",
+        "teb.toml band.goal_tolerance",
+    )
 }
 
 /// The goal's own speed limits (`max_velocity`: linear, angular) when the sender filled
 /// them in (two positive finite numbers); otherwise `None`, and `teb.toml`'s apply.
 pub(crate) fn speed_limit_of(msg: &ControllerGoal) -> Option<[f64; 2]> {
-    let limit = msg.max_velocity;
-    if limit.iter().all(|v| v.is_finite() && *v > 0.0) {
-        return Some(limit);
+    own_or_configured(
+        msg.max_velocity,
+        msg.goal_id,
+        "max_velocity",
+        "teb.toml's limits",
+    )
+}
+
+/// A goal field of `N` numbers that are all positive and finite, else `None` (the
+/// controller's own `configured` applies): all zero is a sender that leaves it to the
+/// controller, anything else is warned about.
+fn own_or_configured<const N: usize>(
+    values: [f64; N],
+    goal_id: u64,
+    field: &str,
+    configured: &str,
+) -> Option<[f64; N]> {
+    if values.iter().all(|v| v.is_finite() && *v > 0.0) {
+        return Some(values);
     }
-    if limit.iter().any(|v| *v != 0.0) {
+    if values.iter().any(|v| *v != 0.0) {
         tracing::warn!(
-            "teb_controller: goal {}: max_velocity {limit:?} is not two positive numbers; \
-             using teb.toml's limits",
-            msg.goal_id
+            "teb_controller: goal {goal_id}: {field} {values:?} is not {N} positive numbers; \
+             using {configured}"
         );
     }
     None
