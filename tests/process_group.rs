@@ -528,6 +528,7 @@ fn replay_check_finds_a_recorded_run_identical_and_a_changed_controller_divergen
     for service in [
         "aisle/map/local",
         "aisle/map/global",
+        "aisle/map/global_changes",
         "aisle/controller/trajectory",
         "aisle/controller/band",
     ] {

@@ -12,7 +12,8 @@ mod support;
 
 use aisle_messages::topics::names as s;
 use aisle_messages::{
-    ControllerBand, ControllerGoal, OccupancyGrid, PointCloud, RobotState, Trajectory,
+    ControllerBand, ControllerGoal, GlobalMapCopy, MapChanges, OccupancyGrid, PointCloud,
+    RobotState, Trajectory,
 };
 use aisle_tools::RecordFile;
 use aisle_tools::aligned::AlignedBuf;
@@ -100,6 +101,15 @@ fn rosbags_reads_every_message_and_matches_the_record() {
     );
 }
 
+/// A grid's JSON entry; its cells go at `cell_at` of `grids.bin`.
+fn grid_entry(g: &aisle_geometry::GridView<'_>, stamp: u64, cell_at: &mut usize) -> Value {
+    let entry = json!({"stamp": stamp, "width": g.width,
+        "height": g.height, "resolution": g.resolution,
+        "origin": [g.origin_x, g.origin_y], "offset": *cell_at});
+    *cell_at += g.cells.len();
+    entry
+}
+
 /// The source record decoded with the project's reader: JSON for the small messages,
 /// `points.bin` (every cloud's xyz as little-endian f32, NaN kept) and `grids.bin`
 /// (every grid's cells, aisle's 0/1/2) for the bulk. Returns the JSON's path.
@@ -112,6 +122,7 @@ fn write_expected(record: &Path, dir: &TestDir) -> std::path::PathBuf {
     let (mut plans, mut bands, mut cmds) = (vec![], vec![], vec![]);
     let (mut point_at, mut cell_at, mut last_goal) = (0usize, 0usize, None);
     let mut buf = AlignedBuf::new();
+    let mut held = GlobalMapCopy::default();
     for m in file.raw_messages() {
         let m = m.unwrap();
         buf.set(&m.data);
@@ -141,18 +152,25 @@ fn write_expected(record: &Path, dir: &TestDir) -> std::path::PathBuf {
                 );
                 point_at += n;
             }
-            t @ (s::GLOBAL_MAP | s::LOCAL_MAP) => {
+            s::LOCAL_MAP => {
                 let g = buf.view::<OccupancyGrid>().unwrap();
-                let n = (g.width * g.height) as usize;
-                grids.write_all(&g.cells[..n]).unwrap();
-                let entry = json!({"stamp": g.header.stamp_ns, "width": g.width,
-                    "height": g.height, "resolution": g.resolution,
-                    "origin": [g.origin_x, g.origin_y], "offset": cell_at});
-                cell_at += n;
-                if t == s::GLOBAL_MAP {
-                    global.push(entry)
+                let view = g.view().unwrap();
+                local.push(grid_entry(&view, g.header.stamp_ns, &mut cell_at));
+                grids.write_all(view.cells).unwrap();
+            }
+            // `/map` is every version of the global map: a full map and its changes.
+            t @ (s::GLOBAL_MAP | s::GLOBAL_MAP_CHANGES) => {
+                let (stamp, update) = if t == s::GLOBAL_MAP {
+                    let g = buf.view::<OccupancyGrid>().unwrap();
+                    (g.header.stamp_ns, held.update(Some(g), None))
                 } else {
-                    local.push(entry)
+                    let c = buf.view::<MapChanges>().unwrap();
+                    (c.header.stamp_ns, held.update(None, Some(c)))
+                };
+                if update.unwrap().changed() {
+                    let view = held.view().unwrap();
+                    global.push(grid_entry(&view, stamp, &mut cell_at));
+                    grids.write_all(view.cells).unwrap();
                 }
             }
             s::CONTROLLER_GOAL => {

@@ -7,8 +7,8 @@ import ctypes
 import enum
 from typing import NamedTuple
 
-SCHEMA_HASH = 0x7cea036d2d7ca862
-SCHEMA_HASH_HEX = "7cea036d2d7ca862"
+SCHEMA_HASH = 0xcee097854af09e5b
+SCHEMA_HASH_HEX = "cee097854af09e5b"
 
 # Capacities and flag bits.
 STAGE_CONTROLLER = 1
@@ -17,6 +17,7 @@ MAX_CLOUD_COLS = 2048
 MAX_CLOUD_POINTS = 131072
 MAX_GRID_SIDE = 4096
 MAX_GRID_CELLS = 2097152
+MAX_MAP_CHANGES = 16384
 MAX_DOCK_PARTS = 8
 MAX_PLACED_PARTS = 32
 MAX_PATH_POSES = 4096
@@ -353,6 +354,41 @@ class OccupancyGrid(ctypes.Structure):
         return cls.TYPE_NAME
 
 
+class CellChangeMsg(ctypes.Structure):
+    """`aisle.CellChangeMsg.v1`: 16 bytes, align 8."""
+
+    TYPE_NAME = "aisle.CellChangeMsg.v1"
+    _fields_ = [
+        ("index", ctypes.c_uint64),
+        ("value", ctypes.c_uint8),
+        ("_pad", ctypes.c_uint8 * 7),
+    ]
+
+    @classmethod
+    def type_name(cls):
+        return cls.TYPE_NAME
+
+
+class MapChanges(ctypes.Structure):
+    """`aisle.MapChanges.v1`: 262224 bytes, align 8."""
+
+    TYPE_NAME = "aisle.MapChanges.v1"
+    _fields_ = [
+        ("header", Header),
+        ("base_version", ctypes.c_uint64),
+        ("version", ctypes.c_uint64),
+        ("width", ctypes.c_uint32),
+        ("height", ctypes.c_uint32),
+        ("len", ctypes.c_uint32),
+        ("_pad", ctypes.c_uint32),
+        ("changes", CellChangeMsg * 16384),
+    ]
+
+    @classmethod
+    def type_name(cls):
+        return cls.TYPE_NAME
+
+
 class MapperControl(ctypes.Structure):
     """`aisle.MapperControl.v2`: 1688 bytes, align 8."""
 
@@ -650,6 +686,8 @@ LAYOUTS = {
     WorldTruth: (22592, 8, (("header", 0, 48), ("len", 48, 4), ("collisions", 52, 4), ("min_clearance", 56, 8), ("bodies", 64, 22528), )),
     PointCloud: (1573000, 8, (("header", 0, 48), ("rows", 48, 4), ("cols", 52, 4), ("sensor_pose", 56, 48), ("robot_pose", 104, 24), ("carried_body", 128, 4), ("_pad", 132, 4), ("points", 136, 1572864), )),
     OccupancyGrid: (2097248, 8, (("header", 0, 48), ("kind", 48, 4), ("width", 52, 4), ("height", 56, 4), ("_pad", 60, 4), ("origin_x", 64, 8), ("origin_y", 72, 8), ("resolution", 80, 8), ("version", 88, 8), ("cells", 96, 2097152), )),
+    CellChangeMsg: (16, 8, (("index", 0, 8), ("value", 8, 1), ("_pad", 9, 7), )),
+    MapChanges: (262224, 8, (("header", 0, 48), ("base_version", 48, 8), ("version", 56, 8), ("width", 64, 4), ("height", 68, 4), ("len", 72, 4), ("_pad", 76, 4), ("changes", 80, 262144), )),
     MapperControl: (1688, 8, (("header", 0, 48), ("ignore", 48, 48), ("carried", 96, 48), ("placed_count", 144, 4), ("_pad", 148, 4), ("placed", 152, 1536), )),
     PlanRequest: (584, 8, (("header", 0, 48), ("request_id", 48, 8), ("start", 56, 24), ("goal", 80, 24), ("footprint_length", 104, 8), ("footprint_width", 112, 8), ("margin", 120, 8), ("use_detections", 128, 4), ("max_expansions", 132, 4), ("timeout_ms", 136, 4), ("dock", 140, 4), ("free_heading", 144, 4), ("_pad", 148, 4), ("body", 152, 48), ("parts", 200, 384), )),
     PlanResponse: (131168, 8, (("header", 0, 48), ("request_id", 48, 8), ("status", 56, 4), ("expansions", 60, 4), ("solve_ns", 64, 8), ("path_length", 72, 8), ("len", 80, 4), ("straight", 84, 4), ("split", 88, 4), ("_pad", 92, 4), ("poses", 96, 131072), )),
@@ -738,6 +776,7 @@ SIM_COMMAND = Topic("aisle/sim_command", SimCommand, Qos(max_publishers=2, max_s
 SIM_STATE = Topic("aisle/sim_state", SimState, Qos(max_publishers=2, max_subscribers=8, history=1, buffer=2))
 POINT_CLOUD = Topic("aisle/lidar/points", PointCloud, Qos(max_publishers=2, max_subscribers=4, history=1, buffer=2))
 GLOBAL_MAP = Topic("aisle/map/global", OccupancyGrid, Qos(max_publishers=2, max_subscribers=6, history=1, buffer=2))
+GLOBAL_MAP_CHANGES = Topic("aisle/map/global_changes", MapChanges, Qos(max_publishers=2, max_subscribers=6, history=1, buffer=2))
 LOCAL_MAP = Topic("aisle/map/local", OccupancyGrid, Qos(max_publishers=2, max_subscribers=4, history=1, buffer=2))
 MAPPER_CONTROL = Topic("aisle/map/control", MapperControl, Qos(max_publishers=2, max_subscribers=8, history=1, buffer=2))
 PLAN_REQUEST = Topic("aisle/planner/request", PlanRequest, Qos(max_publishers=3, max_subscribers=8, history=0, buffer=8))
@@ -759,6 +798,7 @@ TOPICS = (
     SIM_STATE,
     POINT_CLOUD,
     GLOBAL_MAP,
+    GLOBAL_MAP_CHANGES,
     LOCAL_MAP,
     MAPPER_CONTROL,
     PLAN_REQUEST,

@@ -40,6 +40,63 @@ def cells(sample) -> np.ndarray:
     return np.ctypeslib.as_array(m.cells)[:n].reshape(int(m.height), int(m.width))
 
 
+class GlobalMap:
+    """The global map as the newest full map (`topics.GLOBAL_MAP`) and the newest changes
+    since it (`topics.GLOBAL_MAP_CHANGES`) make it, as the Rust nodes hold it
+    (`aisle_messages::GlobalMapCopy`).
+
+    The mapper sends the whole map at start and when its changes outgrow a
+    `MapChanges`; in between only the changes, each message listing every cell changed
+    since that full map with its value now. So the newest message of each topic is all a
+    holder needs: call `update(full, changes)` with whatever arrived (either may be None).
+    `cells` is a `(height, width)` uint8 copy (0 free, 1 static, 2 detected).
+    """
+
+    def __init__(self):
+        self.cells = None
+        self.base_version = None
+        self.version = 0
+        self.origin = (0.0, 0.0)
+        self.resolution = 0.0
+
+    def update(self, full=None, changes=None) -> bool:
+        """Takes a new full map (one of another version than the held one) and changes
+        that name the held full map and are newer; returns whether the map changed.
+        Raises ValueError for changes that do not fit the map (nothing is written)."""
+        changed = False
+        if full is not None:
+            f = _message(full)
+            if self.base_version != int(f.version):
+                self.cells = cells(f).copy()
+                self.base_version = self.version = int(f.version)
+                self.origin = (float(f.origin_x), float(f.origin_y))
+                self.resolution = float(f.resolution)
+                changed = True
+        if changes is not None and self.cells is not None:
+            c = _message(changes)
+            if int(c.base_version) == self.base_version and int(c.version) > self.version:
+                self._apply(c)
+                changed = True
+        return changed
+
+    def _apply(self, c):
+        h, w = self.cells.shape
+        if (int(c.height), int(c.width)) != (h, w):
+            raise ValueError(f"changes for a {c.width} x {c.height} map, the held one is {w} x {h}")
+        n = int(c.len)
+        if n > len(c.changes):
+            raise ValueError(f"{n} changes listed, a MapChanges holds at most {len(c.changes)}")
+        entries = np.ctypeslib.as_array(c.changes)[:n] if n else None
+        if entries is None:
+            self.version = int(c.version)
+            return
+        index, value = entries["index"].astype(np.int64), entries["value"]
+        if (index >= h * w).any():
+            raise ValueError(f"a change names a cell past the map's {h * w}")
+        self.cells.reshape(-1)[index] = value
+        self.version = int(c.version)
+
+
 def address(sample) -> int:
     """The address of the message (to check that a view shares the sample's memory)."""
     return ctypes.addressof(_message(sample))

@@ -9,7 +9,7 @@ from aisle import messages as m
 
 class Layouts(unittest.TestCase):
     def test_every_structure_has_rusts_size_offsets_and_type_name(self):
-        self.assertEqual(len(m.LAYOUTS), 27)
+        self.assertEqual(len(m.LAYOUTS), 29)
         for cls, (size, align, fields) in m.LAYOUTS.items():
             self.assertEqual(ctypes.sizeof(cls), size, cls.TYPE_NAME)
             self.assertEqual(ctypes.alignment(cls), align, cls.TYPE_NAME)
@@ -54,6 +54,33 @@ class NumpyView(unittest.TestCase):
         cloud.rows, cloud.cols = 1000, 1000
         with self.assertRaises(ValueError):
             anp.points(cloud)
+
+
+    def test_the_global_map_is_its_full_map_with_the_newest_changes(self):
+        try:
+            import aisle.numpy as anp
+        except ImportError:
+            self.skipTest("numpy is not installed")
+        full = m.OccupancyGrid()
+        full.width, full.height, full.resolution, full.version = 3, 2, 0.1, 4
+        full.cells[2] = 1
+        changes = m.MapChanges()
+        changes.base_version, changes.version, changes.width, changes.height = 4, 6, 3, 2
+        changes.len = 2
+        changes.changes[0].index, changes.changes[0].value = 1, 2
+        changes.changes[1].index, changes.changes[1].value = 5, 2
+        g = anp.GlobalMap()
+        self.assertFalse(g.update(None, changes))  # waits for its full map
+        self.assertTrue(g.update(full, changes))
+        self.assertEqual(g.cells.tolist(), [[0, 2, 1], [0, 0, 2]])
+        self.assertEqual((g.base_version, g.version), (4, 6))
+        self.assertFalse(g.update(full, changes))  # nothing new
+        changes.version, changes.changes[1].value = 7, 0
+        self.assertTrue(g.update(None, changes))
+        self.assertEqual(g.cells.tolist(), [[0, 2, 1], [0, 0, 0]])
+        changes.version, changes.changes[0].index = 8, 6
+        with self.assertRaises(ValueError):
+            g.update(None, changes)
 
 
 if __name__ == "__main__":

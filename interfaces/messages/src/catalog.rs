@@ -12,10 +12,7 @@ use crate::message;
 pub const MAX_CLOUD_ROWS: usize = 64;
 pub const MAX_CLOUD_COLS: usize = 2048;
 pub const MAX_CLOUD_POINTS: usize = MAX_CLOUD_ROWS * MAX_CLOUD_COLS;
-/// Occupancy grids of up to 2^21 cells (2 MiB) in any shape, no side longer than
-/// `MAX_GRID_SIDE`: a 100 x 200 m warehouse at 10 cells/m is 1000 x 2000.
-pub const MAX_GRID_SIDE: usize = 4096;
-pub const MAX_GRID_CELLS: usize = 1 << 21;
+pub use crate::catalog_maps::{MAX_GRID_CELLS, MAX_GRID_SIDE, MAX_MAP_CHANGES};
 /// Parts of a docking body a plan request can name (a rack's four legs, and more).
 pub const MAX_DOCK_PARTS: usize = 8;
 /// Parts of bodies set down by the mission the mapper keeps as known obstacles (four
@@ -183,26 +180,6 @@ message!(
     }
     used |m: &PointCloud| core::mem::offset_of!(PointCloud, points)
         + 12 * (m.rows as usize * m.cols as usize).min(MAX_CLOUD_POINTS)
-);
-
-message!(
-    /// An occupancy grid: row-major from the origin corner, 0 free, 1 static, 2 detected.
-    OccupancyGrid = "aisle.OccupancyGrid.v2" size 2097248 {
-        header: Header,
-        /// `GridKind` code.
-        kind: u32,
-        width: u32,
-        height: u32,
-        _pad: u32,
-        origin_x: f64,
-        origin_y: f64,
-        resolution: f64,
-        /// Incremented whenever the detections change (global map).
-        version: u64,
-        cells: [u8; MAX_GRID_CELLS],
-    }
-    used |m: &OccupancyGrid| core::mem::offset_of!(OccupancyGrid, cells)
-        + (m.width as usize * m.height as usize).min(MAX_GRID_CELLS)
 );
 
 message!(

@@ -77,6 +77,16 @@ impl GridCopy {
         self.cells.iter_mut().for_each(|c| *c = f(*c));
     }
 
+    /// Width and height, as copied (unchecked).
+    pub fn shape(&self) -> (usize, usize) {
+        (self.width, self.height)
+    }
+
+    /// The cells, to write in place (changes of the map they hold).
+    pub fn cells_mut(&mut self) -> &mut [u8] {
+        &mut self.cells
+    }
+
     /// No cells: nothing was copied yet (or the message held none).
     pub fn is_empty(&self) -> bool {
         self.cells.is_empty()

@@ -1,6 +1,7 @@
 //! Layout descriptions and the schema hash over all of them.
 
 use crate::catalog::*;
+use crate::catalog_maps::*;
 use crate::common::*;
 use std::sync::LazyLock;
 
@@ -119,6 +120,8 @@ catalogue!(
     message WorldTruth,
     message PointCloud,
     message OccupancyGrid,
+    nested CellChangeMsg,
+    message MapChanges,
     message MapperControl,
     message PlanRequest,
     message PlanResponse,

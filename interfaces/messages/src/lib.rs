@@ -12,7 +12,9 @@
 //! how they are sent (see `aisle-bus`) or what the algorithms do with them.
 
 mod catalog;
+mod catalog_maps;
 mod common;
+mod global_map;
 mod grid;
 mod layout;
 mod node_kind;
@@ -21,7 +23,9 @@ pub mod user_topics;
 pub mod wire;
 
 pub use catalog::*;
+pub use catalog_maps::{CellChangeMsg, MapChanges, OccupancyGrid};
 pub use common::*;
+pub use global_map::{GlobalMapCopy, MapChangesError, MapUpdate};
 pub use grid::GridCopy;
 pub use layout::{
     FieldLayout, Message, MessageTypeVisitor, ZeroedValid, all_layouts, message_type_names,

@@ -48,6 +48,8 @@ fn pinned_offsets_of_the_wire_header_and_large_payloads() {
     assert_eq!(off(Header::FIELDS, "source"), 40);
     assert_eq!(off(PointCloud::FIELDS, "points"), 136);
     assert_eq!(off(OccupancyGrid::FIELDS, "cells"), 96);
+    assert_eq!(off(MapChanges::FIELDS, "changes"), 80);
+    assert_eq!(core::mem::size_of::<CellChangeMsg>(), 16);
     assert_eq!(off(Trajectory::FIELDS, "commands"), 120);
     assert_eq!(off(ControllerGoal::FIELDS, "reference"), 160);
     assert_eq!(core::mem::size_of::<PointCloud>(), 1_573_000);

@@ -1,5 +1,6 @@
 //! Replays a record's plan requests with this build's planner, each on the global map the
-//! mission had when it asked (the newest one stamped at or before the request), through
+//! mission had when it asked (the newest full map and changes stamped at or before the
+//! request), through
 //! the planner's own stage (`PlannerStage` on an in-memory `Io`), and prints each
 //! request's recorded and replayed outcome side by side:
 //!
@@ -23,7 +24,8 @@ use std::path::PathBuf;
 
 use aisle_global_planner::node::PlannerStage;
 use aisle_messages::{
-    Header, Message, OccupancyGrid, PlanRequest, PlanResponse, PlanStatus, TickMode, topics,
+    Header, MapChanges, Message, OccupancyGrid, PlanRequest, PlanResponse, PlanStatus, TickMode,
+    topics,
 };
 use aisle_node::testing::MemIo;
 use aisle_node::{RunContext, Stage};
@@ -75,10 +77,12 @@ fn main() -> Result<(), String> {
     let record = record.ok_or(usage)?;
     let file = RecordFile::open(&record).map_err(|e| e.to_string())?;
     let (mut maps, mut requests, mut responses) = (Vec::new(), Vec::new(), Vec::new());
+    let mut changes = Vec::new();
     for m in file.raw_messages() {
         let m = m.map_err(|e| e.to_string())?;
         match m.channel.topic.as_str() {
             t if t == topics::GLOBAL_MAP.name => maps.push(m),
+            t if t == topics::GLOBAL_MAP_CHANGES.name => changes.push(m),
             t if t == topics::PLAN_REQUEST.name => requests.push(m),
             t if t == topics::PLAN_RESPONSE.name => responses.push(m),
             _ => {}
@@ -111,7 +115,7 @@ fn main() -> Result<(), String> {
                 &mut stage,
                 &req,
                 req_msg,
-                &maps,
+                (&maps, &changes),
                 &responses,
                 &mut hasher,
                 print,
@@ -165,7 +169,7 @@ fn replay_one(
     stage: &mut PlannerStage,
     req: &PlanRequest,
     req_msg: &FileMessage,
-    maps: &[FileMessage],
+    (maps, changes): (&[FileMessage], &[FileMessage]),
     responses: &[FileMessage],
     hasher: &mut DefaultHasher,
     print: bool,
@@ -195,6 +199,13 @@ fn replay_one(
         err = copy_into(m, map)
     });
     err?;
+    if let Some(c) = changes.iter().rev().find(|m| stamp(m) <= t) {
+        let mut copied = Ok(());
+        io.push(topics::GLOBAL_MAP_CHANGES, |m: &mut MapChanges| {
+            copied = copy_into(m, c)
+        });
+        copied?;
+    }
     stage.process(req, &io).map_err(|e| e.to_string())?;
     let recorded = responses.iter().find_map(|r| {
         let b = AlignedBuf::from_bytes(&r.data);

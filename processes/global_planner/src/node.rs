@@ -1,5 +1,6 @@
-//! The global planner process: answers `PlanRequest`s on the newest global map (history
-//! 1, from the mapper) with a `PlanResponse` of the same request id, written in place.
+//! The global planner process: answers `PlanRequest`s on the newest global map (the
+//! mapper's newest full map with its newest changes, each history 1) with a
+//! `PlanResponse` of the same request id, written in place.
 //!
 //! `use_detections = 0` plans on the static cells only (the map's detected cells are
 //! read as free), as the seed does for the first path of a leg. Every request is bounded
@@ -13,8 +14,8 @@ use crate::{DockKind, DockSite, Placed, PlanErrorKind, PlanRequest, Planner, Pla
 use aisle_bus::{NodeArgs, NodeError, Stamp, clock};
 use aisle_geometry::{Footprint, OCCUPIED_DETECTED, Pose2};
 use aisle_messages::{
-    DockMove, GridCopy, MAX_PATH_POSES, NodeKind, OccupancyGrid, PlanRequest as PlanRequestMsg,
-    PlanResponse, PlanStatus, RectMsg, StageStatus, Topic, topics,
+    DockMove, GlobalMapCopy, GridCopy, MAX_PATH_POSES, MapChanges, NodeKind, OccupancyGrid,
+    PlanRequest as PlanRequestMsg, PlanResponse, PlanStatus, RectMsg, StageStatus, Topic, topics,
 };
 use aisle_node::{Cycle, Io, RunContext, Stage};
 use std::time::Duration;
@@ -25,15 +26,44 @@ pub const DEFAULT_MAX_EXPANSIONS: u32 = 100_000;
 /// Wall-clock bound when a request leaves `timeout_ms` at 0.
 pub const DEFAULT_TIMEOUT_MS: u32 = 5_000;
 
-/// Takes `m` as the newest global map, with its static layer (detections cleared);
-/// a grid that is not a valid map is ignored and the previous one kept.
-fn update(map: &mut GridCopy, static_map: &mut GridCopy, m: &OccupancyGrid) -> bool {
-    if m.view().is_err() {
-        return false;
+/// The static layer of a cell (detections read as free).
+fn static_cell(c: u8) -> u8 {
+    if c == OCCUPIED_DETECTED { 0 } else { c }
+}
+
+/// Brings `map` to the newest full map and changes (either `None` when nothing new came),
+/// and `static_map` with it; returns whether `map` holds a valid map. A full map that
+/// is not a valid grid, or changes that do not fit the held map, are left out (logged)
+/// and what was held is kept.
+fn update(
+    map: &mut GlobalMapCopy,
+    static_map: &mut GridCopy,
+    full: Option<&OccupancyGrid>,
+    changes: Option<&MapChanges>,
+) -> bool {
+    let full = full.filter(|m| match m.view() {
+        Ok(_) => true,
+        Err(e) => {
+            tracing::warn!(
+                "global_planner: global map version {} refused: {e}",
+                m.version
+            );
+            false
+        }
+    });
+    match map.update(full, changes) {
+        Ok(u) if u.full => static_map.copy_mapped(map.grid(), static_cell),
+        Ok(u) => {
+            if let (Some(n), Some(c)) = (u.changes, changes) {
+                let cells = static_map.cells_mut();
+                for e in &c.changes[..n] {
+                    cells[e.index as usize] = static_cell(e.value);
+                }
+            }
+        }
+        Err(e) => tracing::warn!("global_planner: global map changes refused: {e}"),
     }
-    map.copy_from(m);
-    static_map.copy_mapped(map, |c| if c == OCCUPIED_DETECTED { 0 } else { c });
-    true
+    map.view().is_ok()
 }
 
 fn status_of(kind: &PlanErrorKind) -> PlanStatus {
@@ -56,7 +86,7 @@ fn status_of(kind: &PlanErrorKind) -> PlanStatus {
 pub struct PlannerStage {
     planner: Planner,
     /// The newest global map, and its static layer (detections cleared).
-    map: GridCopy,
+    map: GlobalMapCopy,
     static_map: GridCopy,
     /// A docking request's parts (reused).
     parts: Vec<Placed>,
@@ -71,7 +101,7 @@ impl PlannerStage {
         let planner = Planner::new(cfg).map_err(|e| NodeError::setup("global_planner", e))?;
         Ok(PlannerStage {
             planner,
-            map: GridCopy::default(),
+            map: GlobalMapCopy::default(),
             static_map: GridCopy::default(),
             parts: Vec::with_capacity(aisle_messages::MAX_DOCK_PARTS),
         })
@@ -163,7 +193,12 @@ impl Stage for PlannerStage {
         loop {
             if let Some(m) =
                 io.wait_for(topics::GLOBAL_MAP, Duration::from_millis(200), |_| true)?
-                && update(&mut self.map, &mut self.static_map, &m)
+                && update(
+                    &mut self.map,
+                    &mut self.static_map,
+                    Some(&*m),
+                    io.latest(topics::GLOBAL_MAP_CHANGES)?.as_deref(),
+                )
             {
                 // The tables of the static layer (first plans of a leg use it; replans
                 // ask for the detections too), built before the first request, and the
@@ -179,9 +214,12 @@ impl Stage for PlannerStage {
 
     fn process(&mut self, req: &PlanRequestMsg, io: &impl Io) -> Result<Cycle, NodeError> {
         let req = *req;
-        if let Some(m) = io.latest(topics::GLOBAL_MAP)? {
-            update(&mut self.map, &mut self.static_map, &m);
-        }
+        update(
+            &mut self.map,
+            &mut self.static_map,
+            io.latest(topics::GLOBAL_MAP)?.as_deref(),
+            io.latest(topics::GLOBAL_MAP_CHANGES)?.as_deref(),
+        );
         let started = clock::monotonic_ns();
         let timeout_ms = if req.timeout_ms == 0 {
             DEFAULT_TIMEOUT_MS
@@ -191,7 +229,7 @@ impl Stage for PlannerStage {
         let deadline = started + timeout_ms as u64 * 1_000_000;
         let request = Self::request_of(&req);
         let layer = if req.use_detections != 0 {
-            &self.map
+            self.map.grid()
         } else {
             &self.static_map
         };
@@ -260,4 +298,45 @@ impl Stage for PlannerStage {
 pub fn run(args: &NodeArgs) -> Result<(), NodeError> {
     let mut stage = PlannerStage::new(&args.config_dir)?;
     aisle_node::run(&mut stage, args)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use aisle_geometry::OCCUPIED_STATIC;
+    use aisle_messages::{CellChangeMsg, zeroed_box};
+
+    #[test]
+    fn the_map_and_its_static_layer_follow_the_full_map_and_its_changes() {
+        let mut full = zeroed_box::<OccupancyGrid>();
+        (full.width, full.height, full.resolution, full.version) = (4, 2, 0.1, 3);
+        full.cells[..8].copy_from_slice(&[1, 0, 2, 0, 0, 0, 0, 0]);
+        let mut changes = zeroed_box::<MapChanges>();
+        (changes.base_version, changes.version) = (3, 5);
+        (changes.width, changes.height, changes.len) = (4, 2, 3);
+        for (e, (index, value)) in
+            changes
+                .changes
+                .iter_mut()
+                .zip([(2, 0), (5, OCCUPIED_DETECTED), (7, OCCUPIED_STATIC)])
+        {
+            *e = CellChangeMsg {
+                index,
+                value,
+                _pad: [0; 7],
+            };
+        }
+        let (mut map, mut static_map) = (GlobalMapCopy::default(), GridCopy::default());
+        assert!(!update(&mut map, &mut static_map, None, Some(&changes)));
+        assert!(update(&mut map, &mut static_map, Some(&full), None));
+        assert_eq!(static_map.view().unwrap().cells, &[1, 0, 0, 0, 0, 0, 0, 0]);
+        assert!(update(&mut map, &mut static_map, None, Some(&changes)));
+        assert_eq!(map.view().unwrap().cells, &[1, 0, 0, 0, 0, 2, 0, 1]);
+        assert_eq!(static_map.view().unwrap().cells, &[1, 0, 0, 0, 0, 0, 0, 1]);
+        // An invalid full map is left out; the held one stays.
+        let mut bad = zeroed_box::<OccupancyGrid>();
+        bad.version = 9;
+        assert!(update(&mut map, &mut static_map, Some(&bad), None));
+        assert_eq!(map.version(), 5);
+    }
 }

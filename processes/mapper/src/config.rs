@@ -21,6 +21,10 @@ const MAX_CELLS_PER_METRE: f64 = 50.0;
 /// algorithm does not depend on the message crate. The node adapter asserts the two
 /// agree.
 pub const MAX_GRID_CELLS: usize = 1 << 21;
+/// Changed cells the node lists before it publishes the map whole again (the
+/// `MapChanges` capacity): the change log reserves this many, so listing them allocates
+/// nothing.
+pub const MAX_LISTED_CHANGES: usize = 1 << 14;
 /// Longest grid side, in cells (a grid is at most `MAX_GRID_CELLS` in all).
 pub const MAX_GRID_SIDE: usize = 4096;
 

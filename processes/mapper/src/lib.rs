@@ -27,6 +27,7 @@
 
 #[cfg(test)]
 mod alloc_probe;
+pub mod changes;
 mod clearing;
 pub mod cloud;
 pub mod config;

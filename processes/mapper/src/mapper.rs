@@ -4,6 +4,7 @@
 //! This is the object the node drives: build it once from a static map, feed it every
 //! scan, and copy the maps out. Knows nothing of the bus or of clocks.
 
+use crate::changes::ChangeLog;
 use crate::cloud::BeamGeometry;
 use crate::config::{MAX_GRID_CELLS, MAX_GRID_SIDE, MapConfig};
 use crate::error::MapError;
@@ -38,6 +39,8 @@ pub struct Mapper {
     layer: ObstacleLayer,
     local_side: usize,
     version: u64,
+    /// What changed in `global` since the last full map the node published.
+    changes: ChangeLog,
 }
 
 impl Mapper {
@@ -81,6 +84,7 @@ impl Mapper {
         }
         let layer = ObstacleLayer::new(&cfg.obstacles, beams)?;
         Ok(Self {
+            changes: ChangeLog::new(&static_map.cells, 0),
             global: static_map.clone(),
             placed: PlacedLayer::new(static_map.clone()),
             static_map,
@@ -108,6 +112,9 @@ impl Mapper {
         let stats = self.layer.update(&mut self.global, scan)?;
         if stats.changed() {
             self.version += 1;
+            if let Some((lo, hi)) = stats.written {
+                self.changes.note(&self.global.cells, lo..=hi);
+            }
         }
         Ok(stats)
     }
@@ -121,6 +128,7 @@ impl Mapper {
             .set(parts, &mut self.static_map, &mut self.global);
         if changed {
             self.version += 1;
+            self.changes.note(&self.global.cells, 0..=usize::MAX);
         }
         changed
     }
@@ -173,7 +181,27 @@ impl Mapper {
         if self.global.cells != self.static_map.cells {
             self.global.cells.copy_from_slice(&self.static_map.cells);
             self.version += 1;
+            self.changes.note(&self.global.cells, 0..=usize::MAX);
         }
+    }
+
+    /// What changed in the global map since the base ([`Mapper::rebase_changes`]).
+    pub fn changes(&self) -> &ChangeLog {
+        &self.changes
+    }
+
+    /// Makes the global map as it is now the base of [`Mapper::changes`] (the node
+    /// published it whole).
+    pub fn rebase_changes(&mut self) {
+        self.changes.rebase(&self.global.cells, self.version);
+    }
+
+    /// Takes back the changes a previous mapper had published (state that survives a
+    /// restart, after [`Mapper::restore_detections`]): the base's version and the cells
+    /// changed since, so the next changes go on from the same base with the same list.
+    pub fn resume_changes(&mut self, base_version: u64, listed: impl IntoIterator<Item = u64>) {
+        self.changes.rebase(&self.global.cells, base_version);
+        self.changes.relist(listed);
     }
 
     /// Takes the detections back from a previously published global map (state that

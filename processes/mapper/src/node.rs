@@ -16,7 +16,8 @@ use crate::{
 use aisle_bus::{NodeArgs, NodeError, StageTimer, Stamp};
 use aisle_geometry::{Footprint, GridView, Pose2};
 use aisle_messages::{
-    GridKind, NodeKind, OccupancyGrid, PointCloud, RectMsg, StageStatus, Topic, topics,
+    GlobalMapCopy, GridKind, MAX_MAP_CHANGES, NodeKind, OccupancyGrid, PointCloud, RectMsg,
+    StageStatus, Topic, topics,
 };
 use aisle_node::{Cycle, Io, RunContext, Stage};
 use std::time::Duration;
@@ -35,6 +36,38 @@ fn zone(r: &RectMsg) -> Option<IgnoreZone> {
     (r.valid != 0 && r.length > 0.0 && r.width > 0.0).then(|| IgnoreZone {
         pose: r.pose.into(),
         footprint: Footprint::new(r.length, r.width),
+    })
+}
+
+/// Publishes the global map's changes since the last full map, or the full map (and
+/// makes it the changes' base) when they no longer pay: more than a `MapChanges` holds,
+/// or more bytes than half the map.
+fn publish_global(io: &impl Io, stamp: Stamp, mapper: &mut Mapper) -> Result<(), NodeError> {
+    let listed = mapper.changes().touched().len();
+    let map = mapper.global_map();
+    let change_bytes = listed * size_of::<aisle_messages::CellChangeMsg>();
+    if listed > MAX_MAP_CHANGES || change_bytes > map.cells.len() / 2 {
+        publish_grid(
+            io,
+            topics::GLOBAL_MAP,
+            stamp,
+            GridKind::Global,
+            mapper.version(),
+            &map,
+        )?;
+        mapper.rebase_changes();
+        return Ok(());
+    }
+    let log = mapper.changes();
+    io.publish(topics::GLOBAL_MAP_CHANGES, stamp, |m| {
+        m.base_version = log.base_version();
+        m.version = mapper.version();
+        (m.width, m.height) = (map.width as u32, map.height as u32);
+        m.len = listed as u32;
+        for (e, &i) in m.changes.iter_mut().zip(log.touched()) {
+            e.index = i;
+            e.value = map.cells[i as usize];
+        }
     })
 }
 
@@ -84,6 +117,7 @@ impl MapperStage {
             })?;
         const _: () = assert!(crate::config::MAX_GRID_CELLS == aisle_messages::MAX_GRID_CELLS);
         const _: () = assert!(crate::config::MAX_GRID_SIDE == aisle_messages::MAX_GRID_SIDE);
+        const _: () = assert!(crate::config::MAX_LISTED_CHANGES == aisle_messages::MAX_MAP_CHANGES);
         if static_map.cells.len() > aisle_messages::MAX_GRID_CELLS {
             return Err(NodeError::setup(
                 format!("mapper: {}", mapper_toml.display()),
@@ -168,18 +202,12 @@ impl MapperStage {
         }
     }
 
-    /// The global map when it changed, then the local window around the robot.
+    /// The global map when it changed (its changes, or whole), then the local window
+    /// around the robot.
     fn publish_maps(&mut self, io: &impl Io, stamp: Stamp, robot: Pose2) -> Result<(), NodeError> {
         if self.mapper.version() != self.published_version {
             self.published_version = self.mapper.version();
-            publish_grid(
-                io,
-                topics::GLOBAL_MAP,
-                stamp,
-                GridKind::Global,
-                self.published_version,
-                &self.mapper.global_map(),
-            )?;
+            publish_global(io, stamp, &mut self.mapper)?;
         }
         let mut failure = None;
         let version = self.mapper.version();
@@ -221,6 +249,7 @@ impl Stage for MapperStage {
         if ctx.restarted {
             return Ok(());
         }
+        self.mapper.rebase_changes();
         publish_grid(
             io,
             topics::GLOBAL_MAP,
@@ -233,19 +262,32 @@ impl Stage for MapperStage {
 
     /// A restarted mapper takes the zones of the latest `MapperControl` back (the set-down
     /// racks' legs are part of its static layer) and its detections from the last global
-    /// map (kept and published again by the supervisor), at that map's version: it goes
+    /// map (the full map and its changes, kept and published again by the supervisor),
+    /// at that map's version, with the same full map as the base of its changes: it goes
     /// on exactly as the mapper before it, and publishes the next map when that one
     /// would have. Scans are integrated again after a restart: integrating a scan twice
     /// changes nothing, so the newest one is simply redone.
     fn restore(&mut self, io: &impl Io, _ctx: &RunContext) -> Result<(), NodeError> {
         self.apply_control(io)?;
-        if let Some(g) = io.retained(topics::GLOBAL_MAP, Duration::from_secs(1))? {
-            let view = g
+        if let Some(full) = io.retained(topics::GLOBAL_MAP, Duration::from_secs(1))? {
+            // The changes since that full map, if any were published.
+            let changes = io.retained(topics::GLOBAL_MAP_CHANGES, Duration::from_millis(200))?;
+            let mut held = GlobalMapCopy::default();
+            let update = held
+                .update(Some(&*full), changes.as_deref())
+                .map_err(|e| NodeError::Protocol(format!("mapper: published changes: {e}")))?;
+            let view = held
                 .view()
                 .map_err(|e| NodeError::Protocol(format!("mapper: published global map: {e}")))?;
             self.mapper
-                .restore_detections(&view, g.version)
+                .restore_detections(&view, held.version())
                 .map_err(|e| NodeError::Protocol(format!("mapper: resuming: {e}")))?;
+            let listed = match (update.changes, &changes) {
+                (Some(n), Some(c)) => &c.changes[..n],
+                _ => &[],
+            };
+            self.mapper
+                .resume_changes(full.version, listed.iter().map(|e| e.index));
         }
         tracing::warn!("mapper: resumed with map version {}", self.mapper.version());
         self.published_version = self.mapper.version();
@@ -293,6 +335,29 @@ mod tests {
         c.cols = 3;
         c.points[..6].fill([f32::NAN; 3]);
         c
+    }
+
+    /// The newest full map published on `io` with the newest changes on it.
+    fn held(io: &MemIo) -> GlobalMapCopy {
+        let mut held = GlobalMapCopy::default();
+        if let Some(n) = io.published_len(topics::GLOBAL_MAP).checked_sub(1) {
+            io.published(topics::GLOBAL_MAP, n, |m| {
+                held.update(Some(m), None).unwrap()
+            });
+        }
+        if let Some(n) = io.published_len(topics::GLOBAL_MAP_CHANGES).checked_sub(1) {
+            io.published(topics::GLOBAL_MAP_CHANGES, n, |c| {
+                held.update(None, Some(c)).unwrap()
+            });
+        }
+        held
+    }
+
+    fn held_cell(io: &MemIo, at: (f64, f64)) -> u8 {
+        let held = held(io);
+        let v = held.view().unwrap();
+        let c = v.cell_of(at.0, at.1);
+        v.cells[c.iy as usize * v.width + c.ix as usize]
     }
 
     #[test]
@@ -347,6 +412,63 @@ mod tests {
     }
 
     #[test]
+    fn a_restarted_mapper_goes_on_from_the_same_full_map_and_list_of_changes() {
+        let dir = aisle_config::testing::shipped_dir();
+        let io = MemIo::new();
+        let mut first = MapperStage::new(&dir).unwrap();
+        first.start(&io, &ctx()).unwrap();
+        let leg = |x: f64| RectMsg {
+            pose: Pose2::new(x, 1.0, 0.0).into(),
+            length: 0.1,
+            width: 0.1,
+            valid: 1,
+            _pad: [0; 7],
+        };
+        let control = |io: &MemIo| {
+            io.push(topics::MAPPER_CONTROL, |m| {
+                (m.placed[0], m.placed[1]) = (leg(1.0), leg(2.0));
+                m.placed_count = 2;
+            })
+        };
+        control(&io);
+        first.process(&cloud(1), &io).unwrap();
+        // What the supervisor retained for the restarted mapper: the newest of each.
+        let again = MemIo::new();
+        io.published(topics::GLOBAL_MAP, 0, |g| {
+            again.retain(topics::GLOBAL_MAP, |m| {
+                (m.width, m.height, m.resolution) = (g.width, g.height, g.resolution);
+                (m.origin_x, m.origin_y, m.version) = (g.origin_x, g.origin_y, g.version);
+                m.cells.copy_from_slice(&g.cells);
+            })
+        });
+        io.published(topics::GLOBAL_MAP_CHANGES, 0, |c| {
+            again.retain(topics::GLOBAL_MAP_CHANGES, |m| {
+                (m.base_version, m.version, m.len) = (c.base_version, c.version, c.len);
+                (m.width, m.height) = (c.width, c.height);
+                m.changes.copy_from_slice(&c.changes);
+            })
+        });
+        control(&again);
+        let mut second = MapperStage::new(&dir).unwrap();
+        second.restore(&again, &ctx()).unwrap();
+        let log = |s: &MapperStage| {
+            let c = s.mapper.changes();
+            (c.base_version(), c.touched().to_vec(), s.mapper.version())
+        };
+        assert_eq!(log(&second), log(&first));
+        assert!(!log(&first).1.is_empty());
+        assert_eq!(
+            held(&again).version(),
+            0,
+            "nothing published again on restore"
+        );
+        assert_eq!(
+            second.mapper.global_map().cells,
+            first.mapper.global_map().cells
+        );
+    }
+
+    #[test]
     fn legs_named_placed_are_static_cells_of_the_published_maps_until_dropped_from_the_list() {
         let dir = aisle_config::testing::shipped_dir();
         let mut stage = MapperStage::new(&dir).unwrap();
@@ -360,25 +482,29 @@ mod tests {
             valid: 1,
             _pad: [0; 7],
         };
-        let cell_at = |io: &MemIo, n: usize| {
-            io.published(topics::GLOBAL_MAP, n, |m| {
-                let v = m.view().unwrap();
-                let c = v.cell_of(1.0, 1.0);
-                v.cells[c.iy as usize * v.width + c.ix as usize]
-            })
-            .unwrap()
-        };
-        assert_eq!(cell_at(&io, 0), aisle_geometry::FREE);
+        assert_eq!(held_cell(&io, (1.0, 1.0)), aisle_geometry::FREE);
         io.push(topics::MAPPER_CONTROL, |m| {
             m.placed[0] = leg;
             m.placed_count = 1;
         });
         stage.process(&cloud(1), &io).unwrap();
-        let n = io.published_len(topics::GLOBAL_MAP);
-        assert_eq!(n, 2, "the map changed, so it is published");
-        assert_eq!(cell_at(&io, 1), aisle_geometry::OCCUPIED_STATIC);
+        assert_eq!(
+            (
+                io.published_len(topics::GLOBAL_MAP),
+                io.published_len(topics::GLOBAL_MAP_CHANGES)
+            ),
+            (1, 1),
+            "the map changed: its changes are published, not the whole map"
+        );
+        assert_eq!(held_cell(&io, (1.0, 1.0)), aisle_geometry::OCCUPIED_STATIC);
         io.push(topics::MAPPER_CONTROL, |m| m.placed_count = 0);
         stage.process(&cloud(2), &io).unwrap();
-        assert_eq!(cell_at(&io, 2), aisle_geometry::FREE);
+        assert_eq!(held_cell(&io, (1.0, 1.0)), aisle_geometry::FREE);
+        let listed = io
+            .published(topics::GLOBAL_MAP_CHANGES, 1, |c| {
+                (c.base_version, c.version, c.len)
+            })
+            .unwrap();
+        assert!(listed.0 == 0 && listed.1 == 2 && listed.2 > 0, "{listed:?}");
     }
 }

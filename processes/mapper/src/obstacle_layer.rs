@@ -88,6 +88,9 @@ pub struct ScanStats {
     /// Detected cells made free again (net: a cell cleared and re-marked by the same
     /// scan is not counted).
     pub cleared: u32,
+    /// Row-major indices of the first and last cell the update may have changed
+    /// (`None`: it changed none): where to look for what changed.
+    pub written: Option<(usize, usize)>,
 }
 
 impl ScanStats {
@@ -206,7 +209,12 @@ impl ObstacleLayer {
         let mut flagged = Flagged::NONE;
         self.clear_along_lowest_rays(grid, scan, &frame, &mut flagged);
         clear_zones(grid, zones, &mut flagged);
-        self.mark(grid, cloud, &frame, zones, &mut stats);
+        let marked = self.mark(grid, cloud, &frame, zones, &mut stats);
+        // Marks turn free or flagged cells into detections; flagged cells are resolved
+        // below, within their span: what changed lies within the two spans.
+        let lo = flagged.lo.min(marked.lo);
+        let hi = flagged.hi.max(marked.hi);
+        stats.written = (lo <= hi).then_some((lo, hi));
         if flagged.lo <= flagged.hi {
             // Branch-free so it vectorises: the range can span most of the grid.
             let mut cleared = 0u32;
@@ -325,7 +333,8 @@ impl ObstacleLayer {
         f: &GridFrame,
         zones: &[Zone],
         stats: &mut ScanStats,
-    ) {
+    ) -> Flagged {
+        let mut newly = Flagged::NONE;
         let [lo, hi] = self.cfg.height_band;
         let (lo, hi) = (lo as f32, hi as f32);
         let (w, h) = (grid.width, grid.height);
@@ -354,11 +363,14 @@ impl ObstacleLayer {
                 FREE => {
                     cells[i] = OCCUPIED_DETECTED;
                     stats.newly_detected += 1;
+                    newly.lo = newly.lo.min(i);
+                    newly.hi = newly.hi.max(i);
                 }
                 PENDING_CLEAR => cells[i] = OCCUPIED_DETECTED,
                 _ => {}
             }
         }
+        newly
     }
 }
 

@@ -41,6 +41,7 @@ pub fn inputs() -> Vec<String> {
 pub fn outputs() -> Vec<(String, NodeKind)> {
     vec![
         (s::GLOBAL_MAP.to_string(), NodeKind::Mapper),
+        (s::GLOBAL_MAP_CHANGES.to_string(), NodeKind::Mapper),
         (s::LOCAL_MAP.to_string(), NodeKind::Mapper),
         (s::TRAJECTORY.to_string(), NodeKind::TebController),
         (s::CONTROLLER_BAND.to_string(), NodeKind::TebController),

@@ -82,10 +82,11 @@ pub fn profile_with(path: &Path, opts: &ProfileOptions) -> Result<ProfileReport,
 }
 
 /// Services whose output latency is measured, in report order.
-const LATENCY_SERVICES: [&str; 4] = [
+const LATENCY_SERVICES: [&str; 5] = [
     s::POINT_CLOUD,
     s::LOCAL_MAP,
     s::GLOBAL_MAP,
+    s::GLOBAL_MAP_CHANGES,
     s::CONTROLLER_BAND,
 ];
 

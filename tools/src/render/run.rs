@@ -10,8 +10,9 @@ use super::RenderOptions;
 use crate::reader::RecordFile;
 use aisle_messages::topics::names as s;
 use aisle_messages::{
-    BodyTruth, ControllerBand, ControllerGoal, MAX_BODIES, MAX_COMMANDS, MAX_GRID_CELLS,
-    MAX_PATH_POSES, MissionState, MissionStatus, OccupancyGrid, RobotState, WorldTruth, read_name,
+    BodyTruth, ControllerBand, ControllerGoal, GlobalMapCopy, MAX_BODIES, MAX_COMMANDS,
+    MAX_GRID_CELLS, MAX_PATH_POSES, MapChanges, MissionState, MissionStatus, OccupancyGrid,
+    RobotState, WorldTruth, read_name,
 };
 use std::path::Path;
 
@@ -167,6 +168,25 @@ fn kind_of(name: &str, kinds: &[(String, String)], carried: bool) -> BodyKind {
 }
 
 /// Reads `file` into a [`Run`].
+/// Whether a full map's geometry can be drawn.
+fn drawable(g: &OccupancyGrid) -> bool {
+    (g.width as usize).saturating_mul(g.height as usize) <= MAX_GRID_CELLS
+        && g.width > 0
+        && g.resolution > 0.0
+        && finite(&[g.origin_x, g.origin_y, g.resolution])
+}
+
+/// The held global map as a grid message, the form the drawing reads.
+fn map_of(global: &GlobalMapCopy) -> Option<Box<OccupancyGrid>> {
+    let g = global.view().ok()?;
+    let mut copy = crate::aligned::zeroed_box::<OccupancyGrid>();
+    (copy.width, copy.height) = (g.width as u32, g.height as u32);
+    (copy.origin_x, copy.origin_y, copy.resolution) = (g.origin_x, g.origin_y, g.resolution);
+    copy.version = global.version();
+    copy.cells[..g.cells.len()].copy_from_slice(g.cells);
+    Some(copy)
+}
+
 pub fn collect(file: &RecordFile, opts: &RenderOptions) -> Run {
     let scene = scene_of(file);
     let kinds = scene.as_ref().map(kinds_of).unwrap_or_default();
@@ -179,18 +199,19 @@ pub fn collect(file: &RecordFile, opts: &RenderOptions) -> Run {
     let mut leg = 0;
     let mut state = MissionState::Starting;
     let mut t = 0.0;
+    // The global map as the last full map and the newest changes make it.
+    let mut global = GlobalMapCopy::default();
     let truncated = file.for_each_payload(|topic, buf| match topic {
+        // A full map or changes that do not fit are left out.
         s::GLOBAL_MAP => {
-            if let Some(g) = buf.view::<OccupancyGrid>()
-                && (g.width as usize).saturating_mul(g.height as usize) <= MAX_GRID_CELLS
-                && g.width > 0
-                && g.resolution > 0.0
-                && finite(&[g.origin_x, g.origin_y, g.resolution])
-            {
-                let mut copy = crate::aligned::zeroed_box::<OccupancyGrid>();
-                *copy = *g;
-                run.map = Some(copy);
+            if let Some(g) = buf.view::<OccupancyGrid>().filter(|g| drawable(g)) {
+                let _ = global.update(Some(g), None);
             }
+        }
+        s::GLOBAL_MAP_CHANGES => {
+            let _ = buf
+                .view::<MapChanges>()
+                .map(|c| global.update(None, Some(c)));
         }
         s::WORLD_TRUTH => {
             if let Some(w) = buf.view::<WorldTruth>() {
@@ -249,6 +270,7 @@ pub fn collect(file: &RecordFile, opts: &RenderOptions) -> Run {
         _ => {}
     });
     run.truncated = truncated;
+    run.map = map_of(&global);
     for b in &mut run.movables {
         b.kind = kind_of(&b.name, &kinds, b.poses.iter().any(|p| p.carried));
     }

@@ -12,8 +12,8 @@ use super::{Frame, RosTopic};
 use crate::aligned::AlignedBuf;
 use aisle_messages::topics::names as s;
 use aisle_messages::{
-    ControllerBand, ControllerGoal, MAX_CLOUD_POINTS, MAX_COMMANDS, MAX_GRID_CELLS, MAX_PATH_POSES,
-    OccupancyGrid, PointCloud, RobotState, Trajectory,
+    ControllerBand, ControllerGoal, GlobalMapCopy, MAX_CLOUD_POINTS, MAX_COMMANDS, MAX_GRID_CELLS,
+    MAX_PATH_POSES, MapChanges, OccupancyGrid, PointCloud, RobotState, Trajectory,
 };
 
 /// One encoded ROS 2 message.
@@ -49,6 +49,8 @@ pub struct RosConverter {
     states: u64,
     mount: Option<ros::Transform>,
     skipped: u64,
+    /// The global map as its full maps and changes make it (`/map` is the whole map).
+    global: GlobalMapCopy,
 }
 
 impl RosConverter {
@@ -70,7 +72,10 @@ impl RosConverter {
             s::POINT_CLOUD => msg.view::<PointCloud>().map(|m| self.cloud(m, out)),
             s::GLOBAL_MAP => msg
                 .view::<OccupancyGrid>()
-                .map(|m| grid(RosTopic::Map, m, out)),
+                .map(|m| self.global(m.header.stamp_ns, Some(m), None, out)),
+            s::GLOBAL_MAP_CHANGES => msg
+                .view::<MapChanges>()
+                .map(|m| self.global(m.header.stamp_ns, None, Some(m), out)),
             s::LOCAL_MAP => msg
                 .view::<OccupancyGrid>()
                 .map(|m| grid(RosTopic::LocalMap, m, out)),
@@ -133,6 +138,24 @@ impl RosConverter {
         };
         push(out, RosTopic::Points, stamp, &cloud)?;
         Ok(true)
+    }
+
+    /// `/map` whenever the held global map changes: a new full map, or changes.
+    fn global(
+        &mut self,
+        stamp: u64,
+        full: Option<&OccupancyGrid>,
+        changes: Option<&MapChanges>,
+        out: &mut Vec<RosMessage>,
+    ) -> Result<bool, Error> {
+        if full.is_some_and(|m| m.view().is_err()) {
+            return Ok(false);
+        }
+        match (self.global.update(full, changes), self.global.view()) {
+            (Ok(u), Ok(view)) if u.changed() => grid_of(RosTopic::Map, stamp, &view, out),
+            (Ok(_), _) => Ok(true),
+            (Err(_), _) => Ok(false),
+        }
     }
 
     fn goal(&mut self, m: &ControllerGoal, out: &mut Vec<RosMessage>) -> Result<bool, Error> {
@@ -206,12 +229,25 @@ type Error = cdr_encoding::Error;
 
 fn grid(topic: RosTopic, m: &OccupancyGrid, out: &mut Vec<RosMessage>) -> Result<bool, Error> {
     let (w, h) = (m.width as usize, m.height as usize);
-    let fits = w.checked_mul(h).is_some_and(|n| n <= MAX_GRID_CELLS);
-    if !fits || !m.resolution.is_finite() || m.resolution <= 0.0 {
+    if w.checked_mul(h).is_none_or(|n| n > MAX_GRID_CELLS) {
         return Ok(false);
     }
-    let stamp = m.header.stamp_ns;
-    let cells = m.cells[..w * h]
+    match m.view() {
+        Ok(view) => grid_of(topic, m.header.stamp_ns, &view, out),
+        Err(_) => Ok(false),
+    }
+}
+
+fn grid_of(
+    topic: RosTopic,
+    stamp: u64,
+    g: &aisle_geometry::GridView<'_>,
+    out: &mut Vec<RosMessage>,
+) -> Result<bool, Error> {
+    if !g.resolution.is_finite() || g.resolution <= 0.0 {
+        return Ok(false);
+    }
+    let cells = g.cells[..g.width * g.height]
         .iter()
         .map(|&c| ros_occupancy(c) as u8)
         .collect();
@@ -219,10 +255,10 @@ fn grid(topic: RosTopic, m: &OccupancyGrid, out: &mut Vec<RosMessage>) -> Result
         header: header(stamp, Frame::Map),
         info: ros::MapMetaData {
             map_load_time: Time::from_ns(stamp),
-            resolution: m.resolution as f32,
-            width: m.width,
-            height: m.height,
-            origin: Pose::planar(m.origin_x, m.origin_y, 0.0),
+            resolution: g.resolution as f32,
+            width: g.width as u32,
+            height: g.height as u32,
+            origin: Pose::planar(g.origin_x, g.origin_y, 0.0),
         },
         data: Bytes(cells),
     };

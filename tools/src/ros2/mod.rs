@@ -8,7 +8,7 @@
 //! | topic | type | from | when |
 //! |---|---|---|---|
 //! | `/aisle/points` | `sensor_msgs/msg/PointCloud2` | `aisle/lidar/points` | every scan; organised (`height` rows x `width` columns), x y z float32 in frame `sensor`, NaN for no return (`is_dense` false then) |
-//! | `/map` | `nav_msgs/msg/OccupancyGrid` | `aisle/map/global` | every global map (QoS transient local) |
+//! | `/map` | `nav_msgs/msg/OccupancyGrid` | `aisle/map/global`, `aisle/map/global_changes` | every version of the global map: each full map, and each change applied to it (QoS transient local) |
 //! | `/aisle/local_map` | `nav_msgs/msg/OccupancyGrid` | `aisle/map/local` | every local map (frame `map`) |
 //! | `/plan` | `nav_msgs/msg/Path` | `aisle/controller/goal` | once per goal: the reference path the controller follows |
 //! | `/aisle/band` | `nav_msgs/msg/Path` | `aisle/controller/band` | every controller step: the TEB band, each pose stamped with its time along the band |

@@ -48,6 +48,29 @@ fn grid_cells_follow_the_ros_convention() {
 }
 
 #[test]
+fn the_map_is_the_full_map_with_its_newest_changes() {
+    let mut g = zeroed_box::<OccupancyGrid>();
+    (g.width, g.height, g.resolution, g.version) = (3, 2, 0.25, 2);
+    let mut conv = RosConverter::default();
+    let cells = |out: &[RosMessage]| out[0].data[out[0].data.len() - 6..].to_vec();
+    let out = convert(&mut conv, s::GLOBAL_MAP, &buf(&*g));
+    assert_eq!((out[0].topic, cells(&out)), (RosTopic::Map, vec![0; 6]));
+    let mut c = zeroed_box::<aisle_messages::MapChanges>();
+    (c.base_version, c.version, c.width, c.height, c.len) = (2, 3, 3, 2, 1);
+    c.changes[0].index = 4;
+    c.changes[0].value = 2;
+    let out = convert(&mut conv, s::GLOBAL_MAP_CHANGES, &buf(&*c));
+    assert_eq!(cells(&out), [0, 0, 0, 0, 100, 0]);
+    // Changes of another full map wait for it; a broken list is skipped and counted.
+    c.base_version = 9;
+    assert!(convert(&mut conv, s::GLOBAL_MAP_CHANGES, &buf(&*c)).is_empty());
+    (c.base_version, c.version) = (2, 4);
+    c.changes[0].index = 6;
+    assert!(convert(&mut conv, s::GLOBAL_MAP_CHANGES, &buf(&*c)).is_empty());
+    assert_eq!(conv.skipped(), 1);
+}
+
+#[test]
 fn cloud_stays_organised_and_the_mount_goes_out_once() {
     let mut c = zeroed_box::<PointCloud>();
     c.rows = 1;

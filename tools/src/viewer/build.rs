@@ -5,6 +5,7 @@
 //! decide what is worth emitting (the converter does).
 
 use super::{ViewerMessage, ViewerTopic};
+use aisle_geometry::GridView;
 use aisle_messages::{MAX_GRID_CELLS, OccupancyGrid};
 use foxglove::Encode;
 use foxglove::messages as fg;
@@ -27,31 +28,41 @@ pub(super) fn path(
 
 pub(super) fn grid(m: &OccupancyGrid) -> Option<fg::Grid> {
     let (w, h) = (m.width as usize, m.height as usize);
+    if w.checked_mul(h)? > MAX_GRID_CELLS {
+        return None;
+    }
+    grid_of_view(m.header.stamp_ns, &m.view().ok()?)
+}
+
+/// The grid `g` (a map held outside a message) stamped `stamp_ns`; `None` for an empty
+/// or impossible grid.
+pub(super) fn grid_of_view(stamp_ns: u64, g: &GridView<'_>) -> Option<fg::Grid> {
+    let (w, h) = (g.width, g.height);
     if w == 0
         || h == 0
         || w.checked_mul(h)? > MAX_GRID_CELLS
-        || m.resolution.is_nan()
-        || m.resolution <= 0.0
+        || g.resolution.is_nan()
+        || g.resolution <= 0.0
     {
         return None;
     }
     Some(fg::Grid {
-        timestamp: Some(timestamp(m.header.stamp_ns)),
+        timestamp: Some(timestamp(stamp_ns)),
         frame_id: "map".into(),
-        pose: Some(pose3(m.origin_x, m.origin_y, 0.0, 0.0, 0.0, 0.0)),
-        column_count: m.width,
+        pose: Some(pose3(g.origin_x, g.origin_y, 0.0, 0.0, 0.0, 0.0)),
+        column_count: w as u32,
         cell_size: Some(fg::Vector2 {
-            x: m.resolution,
-            y: m.resolution,
+            x: g.resolution,
+            y: g.resolution,
         }),
-        row_stride: m.width,
+        row_stride: w as u32,
         cell_stride: 1,
         fields: vec![fg::PackedElementField {
             name: "occupancy".into(),
             offset: 0,
             r#type: fg::packed_element_field::NumericType::Int8 as i32,
         }],
-        data: m.cells[..w * h]
+        data: g.cells[..w * h]
             .iter()
             .map(|&c| ros_occupancy(c) as u8)
             .collect::<Vec<u8>>()

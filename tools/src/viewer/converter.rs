@@ -5,16 +5,16 @@
 //! Knows the aisle message layouts and the viewer's choices (colours, frames, what to
 //! skip); the Foxglove messages themselves are made in [`super::build`].
 
-use super::build::{encode, grid, log, path, pose3, rgba, timestamp, transform};
+use super::build::{encode, grid, grid_of_view, log, path, pose3, rgba, timestamp, transform};
 use super::plots::{self, LatencyTicks};
 use super::{ViewerMessage, ViewerOptions, ViewerTopic, robot};
 use crate::aligned::AlignedBuf;
 use crate::payload_fields::{STAMP_AT, u64_at};
 use aisle_messages::topics::names as s;
 use aisle_messages::{
-    ControllerBand, ControllerGoal, Header, Heartbeat, MAX_BODIES, MAX_CLOUD_POINTS, MAX_COMMANDS,
-    MAX_PATH_POSES, MissionState, MissionStatus, NodeKind, NodeState, OccupancyGrid, PointCloud,
-    RobotState, TickDone, Trajectory, WorldTruth, read_name,
+    ControllerBand, ControllerGoal, GlobalMapCopy, Header, Heartbeat, MAX_BODIES, MAX_CLOUD_POINTS,
+    MAX_COMMANDS, MAX_PATH_POSES, MapChanges, MissionState, MissionStatus, NodeKind, NodeState,
+    OccupancyGrid, PointCloud, RobotState, TickDone, Trajectory, WorldTruth, read_name,
 };
 use foxglove::messages as fg;
 
@@ -38,6 +38,13 @@ pub struct ViewerConverter {
     statics: Vec<fg::CubePrimitive>,
     statics_sent_ns: Option<u64>,
     latency: LatencyTicks,
+    /// The global map as its full maps and changes make it.
+    global: GlobalMapCopy,
+    /// The global map changed since it was last sent, and when that was (sim time).
+    global_pending: bool,
+    global_sent_ns: Option<u64>,
+    /// The stamp of the newest message converted.
+    last_stamp_ns: u64,
     /// Buffers of messages already written, for the JSON plot messages (so writing
     /// them allocates nothing once the pool is warm).
     spare: Vec<Vec<u8>>,
@@ -49,6 +56,11 @@ const SPARE_CAPACITY: usize = 4096;
 
 /// How often the static bodies are sent again, sim time.
 const STATIC_RESEND_NS: u64 = 5_000_000_000;
+
+/// Sim time between two global maps sent for their changes: the map crosses the bus as
+/// the few cells that change, but a viewer's grid is the whole map (2 MB at 100 x 200 m),
+/// so changes are gathered and sent at most this often (a full map goes at once).
+const GLOBAL_MAP_PERIOD_NS: u64 = 1_000_000_000;
 
 /// Longest driven path kept; beyond it every other pose is dropped.
 const MAX_DRIVEN: usize = 20_000;
@@ -96,10 +108,25 @@ impl ViewerConverter {
         }
     }
 
-    /// What is still held back at the end of the run (the last tick's latencies).
+    /// What is still held back at the end of the run (the last tick's latencies, the
+    /// global map's last changes).
     pub fn finish(&mut self, out: &mut Vec<ViewerMessage>) {
         let done = self.latency.finish();
         self.send_latency(done, out);
+        if self.global_pending {
+            self.send_global(self.last_stamp_ns, out);
+        }
+    }
+
+    /// The held global map as a viewer grid.
+    fn send_global(&mut self, stamp_ns: u64, out: &mut Vec<ViewerMessage>) {
+        self.global_pending = false;
+        self.global_sent_ns = Some(stamp_ns);
+        if let Ok(view) = self.global.view()
+            && let Some(g) = grid_of_view(stamp_ns, &view)
+        {
+            out.push(encode(ViewerTopic::GlobalMap, stamp_ns, &g));
+        }
     }
 
     fn buffer(&mut self) -> Vec<u8> {
@@ -110,10 +137,19 @@ impl ViewerConverter {
     /// Messages whose bytes do not fit their type, or whose counts are out of range,
     /// yield nothing (the raw channel still has them).
     pub fn convert(&mut self, service: &str, msg: &AlignedBuf, out: &mut Vec<ViewerMessage>) {
-        if msg.len() >= size_of::<Header>()
-            && let Some(entity) = self.robot.take()
-        {
-            out.push(robot::message(&entity, u64_at(msg.bytes(), STAMP_AT)));
+        if msg.len() >= size_of::<Header>() {
+            let stamp = u64_at(msg.bytes(), STAMP_AT);
+            self.last_stamp_ns = self.last_stamp_ns.max(stamp);
+            if let Some(entity) = self.robot.take() {
+                out.push(robot::message(&entity, stamp));
+            }
+            if self.global_pending
+                && self
+                    .global_sent_ns
+                    .is_none_or(|t| stamp >= t.saturating_add(GLOBAL_MAP_PERIOD_NS))
+            {
+                self.send_global(stamp, out);
+            }
         }
         match service {
             s::WORLD_TRUTH => {
@@ -126,16 +162,26 @@ impl ViewerConverter {
                     self.cloud(m, out)
                 }
             }
-            s::GLOBAL_MAP | s::LOCAL_MAP => {
-                if let Some(m) = msg.view::<OccupancyGrid>() {
-                    let topic = if service == s::GLOBAL_MAP {
-                        ViewerTopic::GlobalMap
-                    } else {
-                        ViewerTopic::LocalMap
-                    };
-                    if let Some(g) = grid(m) {
-                        out.push(encode(topic, m.header.stamp_ns, &g));
-                    }
+            s::LOCAL_MAP => {
+                if let Some(m) = msg.view::<OccupancyGrid>()
+                    && let Some(g) = grid(m)
+                {
+                    out.push(encode(ViewerTopic::LocalMap, m.header.stamp_ns, &g));
+                }
+            }
+            s::GLOBAL_MAP => {
+                if let Some(m) = msg.view::<OccupancyGrid>()
+                    && m.view().is_ok()
+                    && self.global.update(Some(m), None).is_ok_and(|u| u.full)
+                {
+                    self.send_global(m.header.stamp_ns, out);
+                }
+            }
+            s::GLOBAL_MAP_CHANGES => {
+                if let Some(m) = msg.view::<MapChanges>()
+                    && self.global.update(None, Some(m)).is_ok_and(|u| u.changed())
+                {
+                    self.global_pending = true;
                 }
             }
             s::CONTROLLER_GOAL => {

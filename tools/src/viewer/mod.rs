@@ -5,7 +5,9 @@
 //! Grids (`/viz/map/global`, `/viz/map/local`, `foxglove.Grid`, one `int8` field
 //! `occupancy`, row-major from the origin cell) hold the ROS `nav_msgs/OccupancyGrid`
 //! values: 0 free, 100 a static obstacle, 99 an obstacle the lidar detected, -1 unknown
-//! (the bus's grids hold 0, 1, 2: `aisle_geometry::grid`).
+//! (the bus's grids hold 0, 1, 2: `aisle_geometry::grid`). The global map is assembled
+//! from its full maps and changes; a full map is sent at once, changes at most once a
+//! second of sim time (a viewer's grid is the whole map).
 //!
 //! Frames: `map` (the map frame), `base_link` (the robot base) and `sensor` (the lidar).
 //! Every viewer message is stamped with the simulated time of the message it came from.
@@ -214,6 +216,55 @@ mod tests {
         out.clear();
         ViewerConverter::default().convert(s::GLOBAL_MAP, &buf(&*g), &mut out);
         assert!(out.is_empty());
+    }
+
+    #[test]
+    fn the_global_map_is_sent_whole_at_once_and_its_changes_at_most_once_a_second() {
+        let mut g = zeroed_box::<OccupancyGrid>();
+        (g.width, g.height, g.resolution, g.version) = (3, 2, 0.1, 4);
+        let mut c = zeroed_box::<aisle_messages::MapChanges>();
+        (c.base_version, c.width, c.height, c.len) = (4, 3, 2, 1);
+        c.changes[0].index = 5;
+        c.changes[0].value = 2;
+        let mut conv = ViewerConverter::default();
+        let grids = |out: &[ViewerMessage]| -> Vec<(u64, Vec<u8>)> {
+            out.iter()
+                .filter(|m| m.topic == ViewerTopic::GlobalMap)
+                .map(|m| {
+                    let d = fg::Grid::decode(m.data.as_slice()).unwrap();
+                    (m.stamp_ns, d.data.to_vec())
+                })
+                .collect()
+        };
+        let mut out = Vec::new();
+        conv.convert(s::GLOBAL_MAP, &buf(&*g), &mut out);
+        assert_eq!(grids(&out), [(0, vec![0; 6])]);
+        // Changes at 0.1 s and 0.5 s wait for the second to pass; the next message
+        // after it brings the map with both.
+        for (stamp, version, len) in [(100, 5, 1), (500, 6, 2)] {
+            c.header.stamp_ns = stamp * 1_000_000;
+            (c.version, c.len) = (version, len);
+            c.changes[1].index = 1;
+            c.changes[1].value = 2;
+            out.clear();
+            conv.convert(s::GLOBAL_MAP_CHANGES, &buf(&*c), &mut out);
+            assert!(grids(&out).is_empty());
+        }
+        let mut later = zeroed_box::<RobotState>();
+        later.header.stamp_ns = 1_000_000_000;
+        out.clear();
+        conv.convert(s::ROBOT_STATE, &buf(&*later), &mut out);
+        assert_eq!(grids(&out), [(1_000_000_000, vec![0, 99, 0, 0, 0, 99])]);
+        // Nothing pending: nothing sent; a last change goes out with `finish`.
+        out.clear();
+        later.header.stamp_ns = 2_500_000_000;
+        conv.convert(s::ROBOT_STATE, &buf(&*later), &mut out);
+        assert!(grids(&out).is_empty());
+        c.version = 7;
+        c.changes[1].value = 0;
+        conv.convert(s::GLOBAL_MAP_CHANGES, &buf(&*c), &mut out);
+        conv.finish(&mut out);
+        assert_eq!(grids(&out), [(2_500_000_000, vec![0, 0, 0, 0, 0, 99])]);
     }
 
     #[test]

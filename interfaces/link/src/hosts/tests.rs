@@ -105,6 +105,7 @@ fn exactly_the_topics_between_the_two_sides_cross() {
         "aisle/robot_state",
         "aisle/world_truth",
         "aisle/map/global",
+        "aisle/map/global_changes",
         "aisle/map/control",
         "aisle/planner/request",
         "aisle/planner/response",

@@ -271,3 +271,60 @@ fn bad_config_or_scene_is_an_error() {
     let narrow = GridMap::new_free(0.0, 0.0, 0.1, 102.5, 20.0).unwrap();
     assert!(Mapper::new(narrow, &cfg, BeamGeometry::default()).is_ok());
 }
+
+#[test]
+fn the_changes_listed_bring_the_base_map_to_the_global_map() {
+    let (_, scene_path) = shipped();
+    let cfg_path = aisle_config::testing::shipped("mapper.toml");
+    let (mut m, _) = Mapper::from_files(&cfg_path, &scene_path, BeamGeometry::default()).unwrap();
+    let mut scene = Scene::load(&scene_path).unwrap();
+    let base = m.global_map().cells.to_vec();
+    let check = |m: &Mapper, base: &[u8]| {
+        let mut held = base.to_vec();
+        for &i in m.changes().touched() {
+            held[i as usize] = m.global_map().cells[i as usize];
+        }
+        assert_eq!(held, m.global_map().cells, "base + changes = the map");
+        let differ = base
+            .iter()
+            .zip(m.global_map().cells)
+            .filter(|(a, b)| a != b)
+            .count();
+        assert!(m.changes().touched().len() >= differ);
+    };
+    // Drive past the pallets, then take one away: detections come and go.
+    let mut cleared = 0;
+    for (k, x) in [0.0, 0.8, 1.6, 2.4].into_iter().enumerate() {
+        if k == 3 {
+            scene.bodies.retain(|b| b.name != "pallet_leg2");
+        }
+        let robot = Pose2::new(x, 0.0, 0.2);
+        let (sensor, cloud) = scene_cloud(&scene, robot);
+        let scan = Scan {
+            cloud: OrganizedCloud::new(31, 1201, &cloud).unwrap(),
+            sensor,
+            robot,
+            robot_footprint: Footprint::new(0.508, 0.43),
+            carried: None,
+            ignore: &[],
+        };
+        let stats = m.integrate(&scan).unwrap();
+        assert!(stats.changed() == stats.written.is_some(), "{stats:?}");
+        cleared += stats.cleared;
+        check(&m, &base);
+    }
+    assert!(cleared > 0, "the pallet taken away was cleared");
+    assert!(!m.changes().touched().is_empty());
+    m.set_placed(&[(Pose2::new(5.0, 5.0, 0.0), Footprint::new(0.2, 0.2))]);
+    check(&m, &base);
+    // A new base: nothing listed, and the changes start from it.
+    m.rebase_changes();
+    assert_eq!(
+        (m.changes().touched().len(), m.changes().base_version()),
+        (0, m.version())
+    );
+    let rebased = m.global_map().cells.to_vec();
+    m.clear_detections();
+    check(&m, &rebased);
+    assert!(!m.changes().touched().is_empty());
+}
