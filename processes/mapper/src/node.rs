@@ -469,6 +469,57 @@ mod tests {
     }
 
     #[test]
+    fn changes_that_outgrow_half_the_map_go_out_as_a_full_map_and_start_again_from_it() {
+        let dir = aisle_config::testing::shipped_dir();
+        let mut stage = MapperStage::new(&dir).unwrap();
+        let io = MemIo::new();
+        stage.start(&io, &ctx()).unwrap();
+        let cells = stage.mapper.global_map().cells.len();
+        // A set-down part of 4 x 5 m: 2,000 cells of a 60,000-cell map, 32 kB of changes.
+        let part = |length: f64| {
+            io.push(topics::MAPPER_CONTROL, |m| {
+                m.placed[0] = RectMsg {
+                    pose: Pose2::new(5.0, 5.0, 0.0).into(),
+                    length,
+                    width: 5.0,
+                    valid: 1,
+                    _pad: [0; 7],
+                };
+                m.placed_count = 1;
+            })
+        };
+        part(0.5);
+        stage.process(&cloud(1), &io).unwrap();
+        let published = |io: &MemIo| {
+            (
+                io.published_len(topics::GLOBAL_MAP),
+                io.published_len(topics::GLOBAL_MAP_CHANGES),
+            )
+        };
+        assert_eq!(published(&io), (1, 1), "a small change: its cells");
+        let listed = stage.mapper.changes().touched().len();
+        assert!(listed > 100 && 16 * listed < cells / 2, "{listed}");
+        part(4.0);
+        stage.process(&cloud(2), &io).unwrap();
+        assert_eq!(published(&io), (2, 1), "past half the map: the map whole");
+        let base = io.published(topics::GLOBAL_MAP, 1, |m| m.version).unwrap();
+        assert_eq!((base, stage.mapper.changes().base_version()), (2, 2));
+        assert!(stage.mapper.changes().touched().is_empty());
+        // The next change is listed against the new full map.
+        part(0.5);
+        stage.process(&cloud(3), &io).unwrap();
+        assert_eq!(published(&io), (2, 2));
+        let newest = io
+            .published(topics::GLOBAL_MAP_CHANGES, 1, |c| c.base_version)
+            .unwrap();
+        assert_eq!(newest, 2);
+        assert_eq!(
+            held(&io).view().unwrap().cells,
+            stage.mapper.global_map().cells
+        );
+    }
+
+    #[test]
     fn legs_named_placed_are_static_cells_of_the_published_maps_until_dropped_from_the_list() {
         let dir = aisle_config::testing::shipped_dir();
         let mut stage = MapperStage::new(&dir).unwrap();
