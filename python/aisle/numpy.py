@@ -60,18 +60,19 @@ class GlobalMap:
         self.resolution = 0.0
 
     def update(self, full=None, changes=None) -> bool:
-        """Takes a new full map (one of another version than the held one) and changes
-        that name the held full map and are newer; returns whether the map changed.
-        Raises ValueError for changes that do not fit the map (nothing is written)."""
+        """Takes what newly arrived (each message once, as `Subscriber.latest()` gives
+        it): a full map is copied whatever its version (a mapper started afresh counts
+        from 0 again), then changes that name the held full map and are newer than the
+        copy are applied; returns whether the map changed. Raises ValueError for changes
+        that do not fit the map (nothing is written)."""
         changed = False
         if full is not None:
             f = _message(full)
-            if self.base_version != int(f.version):
-                self.cells = cells(f).copy()
-                self.base_version = self.version = int(f.version)
-                self.origin = (float(f.origin_x), float(f.origin_y))
-                self.resolution = float(f.resolution)
-                changed = True
+            self.cells = cells(f).copy()
+            self.base_version = self.version = int(f.version)
+            self.origin = (float(f.origin_x), float(f.origin_y))
+            self.resolution = float(f.resolution)
+            changed = True
         if changes is not None and self.cells is not None:
             c = _message(changes)
             if int(c.base_version) == self.base_version and int(c.version) > self.version:

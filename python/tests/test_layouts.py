@@ -74,7 +74,7 @@ class NumpyView(unittest.TestCase):
         self.assertTrue(g.update(full, changes))
         self.assertEqual(g.cells.tolist(), [[0, 2, 1], [0, 0, 2]])
         self.assertEqual((g.base_version, g.version), (4, 6))
-        self.assertFalse(g.update(full, changes))  # nothing new
+        self.assertFalse(g.update(None, changes))  # nothing new
         changes.version, changes.changes[1].value = 7, 0
         self.assertTrue(g.update(None, changes))
         self.assertEqual(g.cells.tolist(), [[0, 2, 1], [0, 0, 0]])

@@ -64,20 +64,19 @@ impl GlobalMapCopy {
         }
     }
 
-    /// Takes the newest full map and the newest changes, either absent when none came:
-    /// a full map of another version than the held one is copied; changes that name
-    /// the held full map and are newer than the copy are applied. Changes that name
-    /// another full map are left (the full map they need is on its way, or they are
-    /// older than it). An error leaves the copy as the full map had it.
+    /// Takes a full map and changes that newly arrived, either absent when none came
+    /// (each message once: what `Io::latest` returns): a full map is copied, whatever
+    /// its version (a mapper started afresh counts from 0 again); changes that name the
+    /// held full map and are newer than the copy are applied. Changes that name another
+    /// full map are left (the full map they need is on its way, or they are older than
+    /// it). An error leaves the copy as the full map had it.
     pub fn update(
         &mut self,
         full: Option<&OccupancyGrid>,
         changes: Option<&MapChanges>,
     ) -> Result<MapUpdate, MapChangesError> {
         let mut done = MapUpdate::default();
-        if let Some(f) = full
-            && self.base != Some(f.version)
-        {
+        if let Some(f) = full {
             self.grid.copy_from(f);
             self.base = Some(f.version);
             self.version = f.version;

@@ -40,11 +40,15 @@ fn the_newest_changes_alone_bring_the_full_map_to_their_version() {
     assert_eq!((cells(&g), g.version()), (vec![0, 2, 1, 0, 2, 0], 3));
     // Version 4 skipped, 5 lists every cell since the full map: cell 1 cleared again.
     let c5 = changes(0, 5, &[(1, 0), (4, 2), (5, 2)]);
-    assert_eq!(g.update(Some(&f0), Some(&c5)).unwrap().changes, Some(3));
+    assert_eq!(g.update(None, Some(&c5)).unwrap().changes, Some(3));
     assert_eq!((cells(&g), g.version()), (vec![0, 0, 1, 0, 2, 2], 5));
     // The same (or older) changes again change nothing.
-    assert!(!g.update(Some(&f0), Some(&c5)).unwrap().changed());
+    assert!(!g.update(None, Some(&c5)).unwrap().changed());
     assert!(!g.update(None, Some(&c3)).unwrap().changed());
+    // A full map given again is taken whole, then the changes again.
+    let u = g.update(Some(&f0), Some(&c5)).unwrap();
+    assert!(u.full && u.changes == Some(3));
+    assert_eq!(cells(&g), vec![0, 0, 1, 0, 2, 2]);
 }
 
 #[test]
@@ -63,6 +67,18 @@ fn a_new_full_map_replaces_the_copy_and_changes_of_the_old_one_are_left() {
     );
     g.update(None, Some(&changes(7, 8, &[(5, 0)]))).unwrap();
     assert_eq!((cells(&g), g.version()), (vec![1, 0, 0, 0, 0, 0], 8));
+}
+
+#[test]
+fn a_mapper_started_afresh_counts_from_its_own_full_map_again() {
+    let mut g = GlobalMapCopy::default();
+    g.update(Some(&full(0, &[0; 6])), Some(&changes(0, 40, &[(0, 2)])))
+        .unwrap();
+    // Its static map at version 0 again, then its first change.
+    g.update(Some(&full(0, &[0, 1, 0, 0, 0, 0])), None).unwrap();
+    assert_eq!((cells(&g), g.version()), (vec![0, 1, 0, 0, 0, 0], 0));
+    g.update(None, Some(&changes(0, 1, &[(2, 2)]))).unwrap();
+    assert_eq!((cells(&g), g.version()), (vec![0, 1, 2, 0, 0, 0], 1));
 }
 
 #[test]
