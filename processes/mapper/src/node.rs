@@ -39,31 +39,40 @@ fn zone(r: &RectMsg) -> Option<IgnoreZone> {
     })
 }
 
-/// Publishes the global map's changes since the last full map, or the full map (and
-/// makes it the changes' base) when they no longer pay: more than a `MapChanges` holds,
-/// or more bytes than half the map.
+/// Publishes the global map's changes since the last full map, or the full map when
+/// they no longer pay: more than a `MapChanges` holds, or more bytes than half the map.
 fn publish_global(io: &impl Io, stamp: Stamp, mapper: &mut Mapper) -> Result<(), NodeError> {
     let listed = mapper.changes().touched().len();
-    let map = mapper.global_map();
     let change_bytes = listed * size_of::<aisle_messages::CellChangeMsg>();
-    if listed > MAX_MAP_CHANGES || change_bytes > map.cells.len() / 2 {
-        publish_grid(
-            io,
-            topics::GLOBAL_MAP,
-            stamp,
-            GridKind::Global,
-            mapper.version(),
-            &map,
-        )?;
-        mapper.rebase_changes();
-        return Ok(());
+    if listed > MAX_MAP_CHANGES || change_bytes > mapper.global_map().cells.len() / 2 {
+        return publish_full(io, stamp, mapper);
     }
-    let log = mapper.changes();
+    publish_changes(io, stamp, mapper)
+}
+
+/// The global map whole, made the base of the changes, then its (empty) changes: so
+/// there are always changes since the newest full map, and a restarted mapper can wait
+/// for the retained ones as long as for the full map, never guessing they do not exist.
+fn publish_full(io: &impl Io, stamp: Stamp, mapper: &mut Mapper) -> Result<(), NodeError> {
+    publish_grid(
+        io,
+        topics::GLOBAL_MAP,
+        stamp,
+        GridKind::Global,
+        mapper.version(),
+        &mapper.global_map(),
+    )?;
+    mapper.rebase_changes();
+    publish_changes(io, stamp, mapper)
+}
+
+fn publish_changes(io: &impl Io, stamp: Stamp, mapper: &Mapper) -> Result<(), NodeError> {
+    let (log, map) = (mapper.changes(), mapper.global_map());
     io.publish(topics::GLOBAL_MAP_CHANGES, stamp, |m| {
         m.base_version = log.base_version();
         m.version = mapper.version();
         (m.width, m.height) = (map.width as u32, map.height as u32);
-        m.len = listed as u32;
+        m.len = log.touched().len() as u32;
         for (e, &i) in m.changes.iter_mut().zip(log.touched()) {
             e.index = i;
             e.value = map.cells[i as usize];
@@ -249,15 +258,7 @@ impl Stage for MapperStage {
         if ctx.restarted {
             return Ok(());
         }
-        self.mapper.rebase_changes();
-        publish_grid(
-            io,
-            topics::GLOBAL_MAP,
-            Stamp::default(),
-            GridKind::Global,
-            self.mapper.version(),
-            &self.mapper.global_map(),
-        )
+        publish_full(io, Stamp::default(), &mut self.mapper)
     }
 
     /// A restarted mapper takes the zones of the latest `MapperControl` back (the set-down
@@ -270,8 +271,8 @@ impl Stage for MapperStage {
     fn restore(&mut self, io: &impl Io, _ctx: &RunContext) -> Result<(), NodeError> {
         self.apply_control(io)?;
         if let Some(full) = io.retained(topics::GLOBAL_MAP, Duration::from_secs(1))? {
-            // The changes since that full map, if any were published.
-            let changes = io.retained(topics::GLOBAL_MAP_CHANGES, Duration::from_millis(200))?;
+            // The changes since that full map (published with every full map).
+            let changes = io.retained(topics::GLOBAL_MAP_CHANGES, Duration::from_secs(1))?;
             let mut held = GlobalMapCopy::default();
             let update = held
                 .update(Some(&*full), changes.as_deref())
@@ -441,7 +442,8 @@ mod tests {
                 m.cells.copy_from_slice(&g.cells);
             })
         });
-        io.published(topics::GLOBAL_MAP_CHANGES, 0, |c| {
+        let newest = io.published_len(topics::GLOBAL_MAP_CHANGES) - 1;
+        io.published(topics::GLOBAL_MAP_CHANGES, newest, |c| {
             again.retain(topics::GLOBAL_MAP_CHANGES, |m| {
                 (m.base_version, m.version, m.len) = (c.base_version, c.version, c.len);
                 (m.width, m.height) = (c.width, c.height);
@@ -496,23 +498,32 @@ mod tests {
                 io.published_len(topics::GLOBAL_MAP_CHANGES),
             )
         };
-        assert_eq!(published(&io), (1, 1), "a small change: its cells");
+        // At start the full map and its (empty) changes, then the change's cells.
+        assert_eq!(published(&io), (1, 2), "a small change: its cells");
         let listed = stage.mapper.changes().touched().len();
         assert!(listed > 100 && 16 * listed < cells / 2, "{listed}");
         part(4.0);
         stage.process(&cloud(2), &io).unwrap();
-        assert_eq!(published(&io), (2, 1), "past half the map: the map whole");
+        assert_eq!(published(&io), (2, 3), "past half the map: the map whole");
+        let empty = io
+            .published(topics::GLOBAL_MAP_CHANGES, 2, |c| {
+                (c.base_version, c.version, c.len)
+            })
+            .unwrap();
+        assert_eq!(empty, (2, 2, 0), "with its empty changes");
         let base = io.published(topics::GLOBAL_MAP, 1, |m| m.version).unwrap();
         assert_eq!((base, stage.mapper.changes().base_version()), (2, 2));
         assert!(stage.mapper.changes().touched().is_empty());
         // The next change is listed against the new full map.
         part(0.5);
         stage.process(&cloud(3), &io).unwrap();
-        assert_eq!(published(&io), (2, 2));
+        assert_eq!(published(&io), (2, 4));
         let newest = io
-            .published(topics::GLOBAL_MAP_CHANGES, 1, |c| c.base_version)
+            .published(topics::GLOBAL_MAP_CHANGES, 3, |c| {
+                (c.base_version, c.version)
+            })
             .unwrap();
-        assert_eq!(newest, 2);
+        assert_eq!(newest, (2, 3));
         assert_eq!(
             held(&io).view().unwrap().cells,
             stage.mapper.global_map().cells
@@ -544,15 +555,16 @@ mod tests {
                 io.published_len(topics::GLOBAL_MAP),
                 io.published_len(topics::GLOBAL_MAP_CHANGES)
             ),
-            (1, 1),
-            "the map changed: its changes are published, not the whole map"
+            (1, 2),
+            "the map changed: its changes are published (after the start's empty ones), \
+             not the whole map"
         );
         assert_eq!(held_cell(&io, (1.0, 1.0)), aisle_geometry::OCCUPIED_STATIC);
         io.push(topics::MAPPER_CONTROL, |m| m.placed_count = 0);
         stage.process(&cloud(2), &io).unwrap();
         assert_eq!(held_cell(&io, (1.0, 1.0)), aisle_geometry::FREE);
         let listed = io
-            .published(topics::GLOBAL_MAP_CHANGES, 1, |c| {
+            .published(topics::GLOBAL_MAP_CHANGES, 2, |c| {
                 (c.base_version, c.version, c.len)
             })
             .unwrap();
