@@ -20,12 +20,14 @@ pub struct GlobalMapCopy {
 }
 
 /// What [`GlobalMapCopy::update`] did.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct MapUpdate {
     /// A new full map was copied.
     pub full: bool,
     /// Changes were applied (how many cells they list).
     pub changes: Option<usize>,
+    /// The full map given was not a valid grid: left out, the held map kept.
+    pub refused: Option<GridError>,
 }
 
 impl MapUpdate {
@@ -66,7 +68,8 @@ impl GlobalMapCopy {
 
     /// Takes a full map and changes that newly arrived, either absent when none came
     /// (each message once: what `Io::latest` returns): a full map is copied, whatever
-    /// its version (a mapper started afresh counts from 0 again); changes that name the
+    /// its version (a mapper started afresh counts from 0 again), unless it is not a
+    /// valid grid (then it is left out and reported); changes that name the
     /// held full map and are newer than the copy are applied. Changes that name another
     /// full map are left (the full map they need is on its way, or they are older than
     /// it). An error leaves the copy as the full map had it.
@@ -77,10 +80,15 @@ impl GlobalMapCopy {
     ) -> Result<MapUpdate, MapChangesError> {
         let mut done = MapUpdate::default();
         if let Some(f) = full {
-            self.grid.copy_from(f);
-            self.base = Some(f.version);
-            self.version = f.version;
-            done.full = true;
+            match f.view() {
+                Ok(_) => {
+                    self.grid.copy_from(f);
+                    self.base = Some(f.version);
+                    self.version = f.version;
+                    done.full = true;
+                }
+                Err(e) => done.refused = Some(e),
+            }
         }
         if let Some(c) = changes
             && self.base == Some(c.base_version)

@@ -41,20 +41,17 @@ fn update(
     full: Option<&OccupancyGrid>,
     changes: Option<&MapChanges>,
 ) -> bool {
-    let full = full.filter(|m| match m.view() {
-        Ok(_) => true,
-        Err(e) => {
-            tracing::warn!(
-                "global_planner: global map version {} refused: {e}",
-                m.version
-            );
-            false
-        }
-    });
     match map.update(full, changes) {
-        Ok(u) if u.full => static_map.copy_mapped(map.grid(), static_cell),
         Ok(u) => {
-            if let (Some(n), Some(c)) = (u.changes, changes) {
+            if let (Some(e), Some(f)) = (&u.refused, full) {
+                tracing::warn!(
+                    "global_planner: global map version {} refused: {e}",
+                    f.version
+                );
+            }
+            if u.full {
+                static_map.copy_mapped(map.grid(), static_cell);
+            } else if let (Some(n), Some(c)) = (u.changes, changes) {
                 let cells = static_map.cells_mut();
                 for e in &c.changes[..n] {
                     cells[e.index as usize] = static_cell(e.value);

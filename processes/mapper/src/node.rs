@@ -338,6 +338,17 @@ mod tests {
         c
     }
 
+    /// A set-down part for `MapperControl.placed`.
+    fn part(pose: Pose2, length: f64, width: f64) -> RectMsg {
+        RectMsg {
+            pose: pose.into(),
+            length,
+            width,
+            valid: 1,
+            _pad: [0; 7],
+        }
+    }
+
     /// The newest full map published on `io` with the newest changes on it.
     fn held(io: &MemIo) -> GlobalMapCopy {
         let mut held = GlobalMapCopy::default();
@@ -418,13 +429,7 @@ mod tests {
         let io = MemIo::new();
         let mut first = MapperStage::new(&dir).unwrap();
         first.start(&io, &ctx()).unwrap();
-        let leg = |x: f64| RectMsg {
-            pose: Pose2::new(x, 1.0, 0.0).into(),
-            length: 0.1,
-            width: 0.1,
-            valid: 1,
-            _pad: [0; 7],
-        };
+        let leg = |x: f64| part(Pose2::new(x, 1.0, 0.0), 0.1, 0.1);
         let control = |io: &MemIo| {
             io.push(topics::MAPPER_CONTROL, |m| {
                 (m.placed[0], m.placed[1]) = (leg(1.0), leg(2.0));
@@ -478,19 +483,13 @@ mod tests {
         stage.start(&io, &ctx()).unwrap();
         let cells = stage.mapper.global_map().cells.len();
         // A set-down part of 4 x 5 m: 2,000 cells of a 60,000-cell map, 32 kB of changes.
-        let part = |length: f64| {
+        let set_down = |length: f64| {
             io.push(topics::MAPPER_CONTROL, |m| {
-                m.placed[0] = RectMsg {
-                    pose: Pose2::new(5.0, 5.0, 0.0).into(),
-                    length,
-                    width: 5.0,
-                    valid: 1,
-                    _pad: [0; 7],
-                };
+                m.placed[0] = part(Pose2::new(5.0, 5.0, 0.0), length, 5.0);
                 m.placed_count = 1;
             })
         };
-        part(0.5);
+        set_down(0.5);
         stage.process(&cloud(1), &io).unwrap();
         let published = |io: &MemIo| {
             (
@@ -502,7 +501,7 @@ mod tests {
         assert_eq!(published(&io), (1, 2), "a small change: its cells");
         let listed = stage.mapper.changes().touched().len();
         assert!(listed > 100 && 16 * listed < cells / 2, "{listed}");
-        part(4.0);
+        set_down(4.0);
         stage.process(&cloud(2), &io).unwrap();
         assert_eq!(published(&io), (2, 3), "past half the map: the map whole");
         let empty = io
@@ -515,7 +514,7 @@ mod tests {
         assert_eq!((base, stage.mapper.changes().base_version()), (2, 2));
         assert!(stage.mapper.changes().touched().is_empty());
         // The next change is listed against the new full map.
-        part(0.5);
+        set_down(0.5);
         stage.process(&cloud(3), &io).unwrap();
         assert_eq!(published(&io), (2, 4));
         let newest = io
@@ -537,13 +536,7 @@ mod tests {
         let io = MemIo::new();
         stage.start(&io, &ctx()).unwrap();
         // A free spot of the shipped warehouse: the start pose's surroundings.
-        let leg = RectMsg {
-            pose: Pose2::new(1.0, 1.0, 0.3).into(),
-            length: 0.1,
-            width: 0.1,
-            valid: 1,
-            _pad: [0; 7],
-        };
+        let leg = part(Pose2::new(1.0, 1.0, 0.3), 0.1, 0.1);
         assert_eq!(held_cell(&io, (1.0, 1.0)), aisle_geometry::FREE);
         io.push(topics::MAPPER_CONTROL, |m| {
             m.placed[0] = leg;

@@ -148,10 +148,8 @@ impl RosConverter {
         changes: Option<&MapChanges>,
         out: &mut Vec<RosMessage>,
     ) -> Result<bool, Error> {
-        if full.is_some_and(|m| m.view().is_err()) {
-            return Ok(false);
-        }
         match (self.global.update(full, changes), self.global.view()) {
+            (Ok(u), _) if u.refused.is_some() => Ok(false),
             (Ok(u), Ok(view)) if u.changed() => grid_of(RosTopic::Map, stamp, &view, out),
             (Ok(_), _) => Ok(true),
             (Err(_), _) => Ok(false),

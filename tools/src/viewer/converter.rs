@@ -171,7 +171,6 @@ impl ViewerConverter {
             }
             s::GLOBAL_MAP => {
                 if let Some(m) = msg.view::<OccupancyGrid>()
-                    && m.view().is_ok()
                     && self.global.update(Some(m), None).is_ok_and(|u| u.full)
                 {
                     self.send_global(m.header.stamp_ns, out);

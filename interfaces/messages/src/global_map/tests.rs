@@ -96,6 +96,15 @@ fn changes_that_do_not_fit_the_full_map_are_refused_whole() {
         })
     );
     assert_eq!((cells(&g), g.version()), (vec![0; 6], 1), "nothing written");
+    let mut broken = full(5, &[1; 6]);
+    broken.resolution = 0.0;
+    let u = g.update(Some(&broken), None).unwrap();
+    assert!(!u.full && u.refused.is_some());
+    assert_eq!(
+        (cells(&g), g.version()),
+        (vec![0; 6], 1),
+        "the held map stays"
+    );
     let mut shape = changes(1, 2, &[(0, 2)]);
     shape.width = 2;
     assert!(matches!(
