@@ -3,9 +3,10 @@
 //!   cell map): ground truth lists only the bodies that can move, so a scene may have any
 //!   number of static ones (the v2 messages held 64 bodies in all and the simulator
 //!   refused such a scene);
-//! - `config/large` (99.2 x 199.4 m, 9,972 bodies, a 1000 x 2000 cell map, two picks and
-//!   drops over 550 m): the grid message holds 2^21 cells (it held 2^20 before, and the
-//!   config reader refused a scene over 1 MiB).
+//! - `config/large` (99.2 x 199.4 m, 9,972 bodies, a 2000 x 4000 cell map at 20 cells/m,
+//!   two picks and drops over 500 m): the global map's message holds 2^24 cells (the
+//!   local map's 2^21; one grid type held 2^20 before, then 2^21, and the config reader
+//!   refused a scene over 1 MiB).
 //!
 //! Both run as a user runs them, `--config-dir` naming the overlay directory itself.
 

@@ -12,8 +12,8 @@ mod support;
 
 use aisle_messages::topics::names as s;
 use aisle_messages::{
-    ControllerBand, ControllerGoal, GlobalMapCopy, MapChanges, OccupancyGrid, PointCloud,
-    RobotState, Trajectory,
+    ControllerBand, ControllerGoal, GlobalGrid, GlobalMapCopy, GridMessage, MapChanges,
+    OccupancyGrid, PointCloud, RobotState, Trajectory,
 };
 use aisle_tools::RecordFile;
 use aisle_tools::aligned::AlignedBuf;
@@ -161,7 +161,7 @@ fn write_expected(record: &Path, dir: &TestDir) -> std::path::PathBuf {
             // `/map` is every version of the global map: a full map and its changes.
             t @ (s::GLOBAL_MAP | s::GLOBAL_MAP_CHANGES) => {
                 let (stamp, update) = if t == s::GLOBAL_MAP {
-                    let g = buf.view::<OccupancyGrid>().unwrap();
+                    let g = buf.view::<GlobalGrid>().unwrap();
                     (g.header.stamp_ns, held.update(Some(g), None))
                 } else {
                     let c = buf.view::<MapChanges>().unwrap();

@@ -7,8 +7,8 @@ import ctypes
 import enum
 from typing import NamedTuple
 
-SCHEMA_HASH = 0xcee097854af09e5b
-SCHEMA_HASH_HEX = "cee097854af09e5b"
+SCHEMA_HASH = 0xcd203eefb5b6d254
+SCHEMA_HASH_HEX = "cd203eefb5b6d254"
 
 # Capacities and flag bits.
 STAGE_CONTROLLER = 1
@@ -17,6 +17,8 @@ MAX_CLOUD_COLS = 2048
 MAX_CLOUD_POINTS = 131072
 MAX_GRID_SIDE = 4096
 MAX_GRID_CELLS = 2097152
+MAX_GLOBAL_GRID_SIDE = 8192
+MAX_GLOBAL_GRID_CELLS = 16777216
 MAX_MAP_CHANGES = 16384
 MAX_DOCK_PARTS = 8
 MAX_PLACED_PARTS = 32
@@ -347,6 +349,28 @@ class OccupancyGrid(ctypes.Structure):
         ("resolution", ctypes.c_double),
         ("version", ctypes.c_uint64),
         ("cells", ctypes.c_uint8 * 2097152),
+    ]
+
+    @classmethod
+    def type_name(cls):
+        return cls.TYPE_NAME
+
+
+class GlobalGrid(ctypes.Structure):
+    """`aisle.GlobalGrid.v1`: 16777312 bytes, align 8."""
+
+    TYPE_NAME = "aisle.GlobalGrid.v1"
+    _fields_ = [
+        ("header", Header),
+        ("kind", ctypes.c_uint32),
+        ("width", ctypes.c_uint32),
+        ("height", ctypes.c_uint32),
+        ("_pad", ctypes.c_uint32),
+        ("origin_x", ctypes.c_double),
+        ("origin_y", ctypes.c_double),
+        ("resolution", ctypes.c_double),
+        ("version", ctypes.c_uint64),
+        ("cells", ctypes.c_uint8 * 16777216),
     ]
 
     @classmethod
@@ -686,6 +710,7 @@ LAYOUTS = {
     WorldTruth: (22592, 8, (("header", 0, 48), ("len", 48, 4), ("collisions", 52, 4), ("min_clearance", 56, 8), ("bodies", 64, 22528), )),
     PointCloud: (1573000, 8, (("header", 0, 48), ("rows", 48, 4), ("cols", 52, 4), ("sensor_pose", 56, 48), ("robot_pose", 104, 24), ("carried_body", 128, 4), ("_pad", 132, 4), ("points", 136, 1572864), )),
     OccupancyGrid: (2097248, 8, (("header", 0, 48), ("kind", 48, 4), ("width", 52, 4), ("height", 56, 4), ("_pad", 60, 4), ("origin_x", 64, 8), ("origin_y", 72, 8), ("resolution", 80, 8), ("version", 88, 8), ("cells", 96, 2097152), )),
+    GlobalGrid: (16777312, 8, (("header", 0, 48), ("kind", 48, 4), ("width", 52, 4), ("height", 56, 4), ("_pad", 60, 4), ("origin_x", 64, 8), ("origin_y", 72, 8), ("resolution", 80, 8), ("version", 88, 8), ("cells", 96, 16777216), )),
     CellChangeMsg: (16, 8, (("index", 0, 8), ("value", 8, 1), ("_pad", 9, 7), )),
     MapChanges: (262224, 8, (("header", 0, 48), ("base_version", 48, 8), ("version", 56, 8), ("width", 64, 4), ("height", 68, 4), ("len", 72, 4), ("_pad", 76, 4), ("changes", 80, 262144), )),
     MapperControl: (1688, 8, (("header", 0, 48), ("ignore", 48, 48), ("carried", 96, 48), ("placed_count", 144, 4), ("_pad", 148, 4), ("placed", 152, 1536), )),
@@ -775,7 +800,7 @@ WORLD_TRUTH = Topic("aisle/world_truth", WorldTruth, Qos(max_publishers=2, max_s
 SIM_COMMAND = Topic("aisle/sim_command", SimCommand, Qos(max_publishers=2, max_subscribers=4, history=16, buffer=16))
 SIM_STATE = Topic("aisle/sim_state", SimState, Qos(max_publishers=2, max_subscribers=8, history=1, buffer=2))
 POINT_CLOUD = Topic("aisle/lidar/points", PointCloud, Qos(max_publishers=2, max_subscribers=4, history=1, buffer=2))
-GLOBAL_MAP = Topic("aisle/map/global", OccupancyGrid, Qos(max_publishers=2, max_subscribers=6, history=1, buffer=2))
+GLOBAL_MAP = Topic("aisle/map/global", GlobalGrid, Qos(max_publishers=2, max_subscribers=6, history=1, buffer=2))
 GLOBAL_MAP_CHANGES = Topic("aisle/map/global_changes", MapChanges, Qos(max_publishers=2, max_subscribers=6, history=1, buffer=2))
 LOCAL_MAP = Topic("aisle/map/local", OccupancyGrid, Qos(max_publishers=2, max_subscribers=4, history=1, buffer=2))
 MAPPER_CONTROL = Topic("aisle/map/control", MapperControl, Qos(max_publishers=2, max_subscribers=8, history=1, buffer=2))

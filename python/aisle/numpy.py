@@ -32,11 +32,12 @@ def points(sample, organised: bool = False) -> np.ndarray:
 
 
 def cells(sample) -> np.ndarray:
-    """An `OccupancyGrid`'s `height x width` cells as uint8 (row-major), without copying."""
+    """A grid's (`OccupancyGrid`, the local map, or `GlobalGrid`, the global map)
+    `height x width` cells as uint8 (row-major), without copying."""
     m = _message(sample)
     n = int(m.width) * int(m.height)
     if n > len(m.cells):
-        raise ValueError(f"OccupancyGrid says {m.width} x {m.height} cells, it holds at most {len(m.cells)}")
+        raise ValueError(f"the grid says {m.width} x {m.height} cells, it holds at most {len(m.cells)}")
     return np.ctypeslib.as_array(m.cells)[:n].reshape(int(m.height), int(m.width))
 
 

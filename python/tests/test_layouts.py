@@ -9,7 +9,7 @@ from aisle import messages as m
 
 class Layouts(unittest.TestCase):
     def test_every_structure_has_rusts_size_offsets_and_type_name(self):
-        self.assertEqual(len(m.LAYOUTS), 29)
+        self.assertEqual(len(m.LAYOUTS), 30)
         for cls, (size, align, fields) in m.LAYOUTS.items():
             self.assertEqual(ctypes.sizeof(cls), size, cls.TYPE_NAME)
             self.assertEqual(ctypes.alignment(cls), align, cls.TYPE_NAME)
@@ -61,7 +61,7 @@ class NumpyView(unittest.TestCase):
             import aisle.numpy as anp
         except ImportError:
             self.skipTest("numpy is not installed")
-        full = m.OccupancyGrid()
+        full = m.GlobalGrid()
         full.width, full.height, full.resolution, full.version = 3, 2, 0.1, 4
         full.cells[2] = 1
         changes = m.MapChanges()

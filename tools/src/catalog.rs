@@ -120,9 +120,12 @@ mod tests {
         names.sort();
         names.dedup();
         assert_eq!(names.len(), all.len());
+        // The global map's grid holds 2^24 cells, the local map's 2^21: two layouts.
         let g = service_info(topics::GLOBAL_MAP.name).unwrap();
         let l = service_info(topics::LOCAL_MAP.name).unwrap();
-        assert_eq!(g.layout_hash, l.layout_hash);
+        assert_ne!(g.layout_hash, l.layout_hash);
+        let p = service_info(topics::ROBOT_STATE.name).unwrap();
+        assert_ne!(g.layout_hash, p.layout_hash);
         for i in &all {
             let kind = producer(i.service);
             assert_eq!(

@@ -52,14 +52,26 @@ pub fn first_difference(type_name: &str, a: &[u8], b: &[u8], ignore: &[&str]) ->
             live: format!("{} bytes", b.len()),
         });
     };
-    if a.len() != *size || b.len() != *size {
+    if a.len() > *size || b.len() > *size {
         return Some(FieldDiff {
             field: "<size>".into(),
             recorded: format!("{} bytes", a.len()),
             live: format!("{} bytes", b.len()),
         });
     }
-    walk(fields, a, b, "", ignore)
+    walk(fields, &padded(a, *size), &padded(b, *size), "", ignore)
+}
+
+/// `x` as a message of `size` bytes: a payload as a bus port hands it out (its used
+/// part) reads as zeros past its end.
+fn padded(x: &[u8], size: usize) -> std::borrow::Cow<'_, [u8]> {
+    if x.len() == size {
+        x.into()
+    } else {
+        let mut whole = x.to_vec();
+        whole.resize(size, 0);
+        whole.into()
+    }
 }
 
 /// Depth-first search over `fields` laid out from byte 0 of `a` and `b`.
@@ -273,8 +285,15 @@ mod tests {
         .unwrap();
         assert_eq!(d.field, "cells[5120]");
         assert_eq!(d.live, "2");
+        // The used part a port hands out reads as zeros past its end.
         let short = &message_bytes(&*a)[..100];
         let d = first_difference(OccupancyGrid::TYPE_NAME, short, message_bytes(&*b), &[]);
+        assert_eq!(d.unwrap().field, "cells[5120]");
+        assert!(
+            first_difference(OccupancyGrid::TYPE_NAME, short, message_bytes(&*a), &[]).is_none()
+        );
+        let long = [message_bytes(&*a), &[0u8; 8]].concat();
+        let d = first_difference(OccupancyGrid::TYPE_NAME, &long, message_bytes(&*b), &[]);
         assert_eq!(d.unwrap().field, "<size>");
         let t = zeroed_box::<TickDone>();
         assert!(first_difference("aisle.Nope.v1", message_bytes(&*t), &[], &[]).is_some());

@@ -10,8 +10,9 @@ use crate::viewer::{ViewerConverter, ViewerOptions};
 use crate::writer::{RecordWriter, WriteError, WriterOptions};
 use aisle_messages::topics::names as s;
 use aisle_messages::{
-    ControllerBand, ControllerGoal, Message, MissionStatus, NodeKind, OccupancyGrid, PointCloud,
-    RobotState, StageStatus, Tick, TickDone, Trajectory, WorldTruth, write_name,
+    ControllerBand, ControllerGoal, GlobalGrid, GridMessage, Message, MissionStatus, NodeKind,
+    OccupancyGrid, PointCloud, RobotState, StageStatus, Tick, TickDone, Trajectory, WorldTruth,
+    write_name,
 };
 use std::io::{Seek, Write};
 
@@ -177,9 +178,9 @@ impl Run {
     /// The mapper's maps of tick k (the global one every 10th) and its acknowledgement.
     fn mapper(&mut self, k: u64) {
         if k.is_multiple_of(10) {
-            self.push(4, s::GLOBAL_MAP, grid(0, k), k, 3_000_000);
+            self.push(4, s::GLOBAL_MAP, grid::<GlobalGrid>(0, k), k, 3_000_000);
         }
-        self.push(5, s::LOCAL_MAP, grid(1, k), k, 3_000_000);
+        self.push(5, s::LOCAL_MAP, grid::<OccupancyGrid>(1, k), k, 3_000_000);
         self.done(NodeKind::Mapper, StageStatus::Done, mapper_compute_ns(k), k);
     }
 
@@ -264,23 +265,18 @@ pub fn synthetic_run(ticks: u64) -> Vec<Sample> {
 }
 
 /// A 40 x 60 map (20 x 30 m at 0.5 m) with a static wall and, from tick 20 on, a detected
-/// blob where the rack stands.
-fn grid(kind: u32, k: u64) -> Box<OccupancyGrid> {
-    let mut g = zeroed_box::<OccupancyGrid>();
-    g.kind = kind;
-    g.width = 40;
-    g.height = 60;
-    g.origin_x = -5.0;
-    g.origin_y = -10.0;
-    g.resolution = 0.5;
-    g.version = k / 20;
-    for col in 0..40 {
-        g.cells[12 * 40 + col] = 1;
-    }
+/// blob where the rack stands, as a global (`GlobalGrid`) or local (`OccupancyGrid`) map.
+fn grid<G: GridMessage>(kind: u32, k: u64) -> Box<G> {
+    let mut cells = [0u8; 40 * 60];
+    cells[12 * 40..13 * 40].fill(1);
     if k >= 20 {
-        g.cells[24 * 40 + 16] = 2;
-        g.cells[24 * 40 + 17] = 2;
+        cells[24 * 40 + 16] = 2;
+        cells[24 * 40 + 17] = 2;
     }
+    let view =
+        aisle_geometry::GridView::new(-5.0, -10.0, 0.5, 40, 60, &cells).expect("a valid grid");
+    let mut g = zeroed_box::<G>();
+    g.write(kind, k / 20, &view);
     g
 }
 

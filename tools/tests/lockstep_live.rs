@@ -6,7 +6,7 @@
 
 use aisle_bus::{Bus, Instance, Publisher, Stamp, WaitOutcome};
 use aisle_messages::topics::names as s;
-use aisle_messages::{NodeKind, OccupancyGrid, StageStatus, TickMode, topics};
+use aisle_messages::{GlobalGrid, NodeKind, OccupancyGrid, StageStatus, TickMode, topics};
 use aisle_tools::lockstep::{LockstepOptions, LockstepPorts, replay_lockstep};
 use aisle_tools::replay::ReplayError;
 use aisle_tools::synthetic::write_synthetic;
@@ -65,7 +65,7 @@ fn stand_in(
         let (bus, _) = Bus::join(&instance, NodeKind::Mapper, Duration::from_secs(10)).unwrap();
         let clouds = bus.subscriber(topics::POINT_CLOUD).unwrap();
         let mut local: Publisher<OccupancyGrid> = bus.publisher(topics::LOCAL_MAP).unwrap();
-        let mut global: Publisher<OccupancyGrid> = bus.publisher(topics::GLOBAL_MAP).unwrap();
+        let mut global: Publisher<GlobalGrid> = bus.publisher(topics::GLOBAL_MAP).unwrap();
         let mut acks = bus.publisher(topics::TICK_DONE).unwrap();
         ready.send(()).unwrap();
         let mut seen = Seen {
@@ -88,12 +88,12 @@ fn stand_in(
                     let at = std::mem::offset_of!(OccupancyGrid, cells) + 5;
                     bytes[at] ^= 2;
                 }
-                let port = if service == s::LOCAL_MAP {
-                    &mut local
+                if service == s::LOCAL_MAP {
+                    local.publish_bytes(&bytes)
                 } else {
-                    &mut global
-                };
-                port.publish_bytes(&bytes).unwrap();
+                    global.publish_bytes(&bytes)
+                }
+                .unwrap();
             }
             // Slow on purpose: the replay must wait for the acknowledgement.
             std::thread::sleep(Duration::from_millis(2));

@@ -52,7 +52,7 @@ pub use node::NodeError;
 pub use owner_watch::OwnerWatch;
 pub use port::{
     Publisher, Received, SERVICE_SETTINGS, ServiceSettings, Stamp, Subscriber, WaitOutcome,
-    message_bytes,
+    message_bytes, used_bytes,
 };
 pub use raw::{RawPublisher, RawSubscriber};
 pub use request::{Client, Correlated};

@@ -155,16 +155,19 @@ impl<M: Message> Publisher<M> {
             .map_err(|e| BusError::service(self.service, e))
     }
 
-    /// Publishes an exact copy of `bytes` (a recorded payload) without touching the header.
+    /// Publishes an exact copy of `bytes` (a recorded or retained payload) without
+    /// touching the header: the whole message, or a prefix of it at least a header long
+    /// (its used part, [`used_bytes`]), the rest of the message then zero.
     pub fn publish_bytes(&mut self, bytes: &[u8]) -> Result<(), BusError> {
-        if bytes.len() != std::mem::size_of::<M>() {
+        let size = std::mem::size_of::<M>();
+        let header = std::mem::size_of::<aisle_messages::Header>();
+        if bytes.len() > size || bytes.len() < header {
             return Err(BusError::Service {
                 service: self.service.to_string(),
                 what: format!(
-                    "payload of {} bytes, {} needs {}",
+                    "payload of {} bytes, {} needs {header} to {size}",
                     bytes.len(),
                     M::TYPE_NAME,
-                    std::mem::size_of::<M>()
                 ),
             });
         }
@@ -172,17 +175,18 @@ impl<M: Message> Publisher<M> {
             .port
             .loan_uninit()
             .map_err(|e| BusError::service(self.service, e))?;
-        // A recorded payload is written whole.
-        let at = sample.payload_mut().as_mut_ptr() as usize;
-        self.extents.set(at, bytes.len());
-        // SAFETY: the byte count equals size_of::<M>() and every bit pattern of the
-        // numeric fields of an `M: ZeroedValid` is a valid value.
+        let at = sample.payload_mut().as_mut_ptr() as *mut u8;
+        let dirty = self.extents.dirty(at as usize, size).min(size);
+        self.extents.set(at as usize, bytes.len());
+        // SAFETY: `bytes` fits the sample; past `dirty` the sample is zero already (the
+        // extents' invariant), so after the copy and clearing what earlier messages wrote
+        // past it, the sample is `bytes` then zeros, and every bit pattern of the numeric
+        // fields of an `M: ZeroedValid` is a valid value.
         let sample = unsafe {
-            std::ptr::copy_nonoverlapping(
-                bytes.as_ptr(),
-                sample.payload_mut().as_mut_ptr() as *mut u8,
-                bytes.len(),
-            );
+            std::ptr::copy_nonoverlapping(bytes.as_ptr(), at, bytes.len());
+            if dirty > bytes.len() {
+                at.add(bytes.len()).write_bytes(0, dirty - bytes.len());
+            }
             sample.assume_init()
         };
         sample
@@ -201,6 +205,17 @@ pub fn message_bytes<M: Message>(m: &M) -> &[u8] {
     // SAFETY: messages are `#[repr(C)]` plain data with explicit padding fields, so every
     // byte of the value is initialised and may be read.
     unsafe { std::slice::from_raw_parts(m as *const M as *const u8, std::mem::size_of::<M>()) }
+}
+
+/// The leading bytes of a message its fields use ([`Message::used_len`]: a cloud's
+/// points or a grid's cells in use, not the capacity; at least the header). A publisher
+/// writes nothing past them, so the rest of a published message is zero.
+pub fn used_bytes<M: Message>(m: &M) -> &[u8] {
+    let size = std::mem::size_of::<M>();
+    let used = m
+        .used_len()
+        .clamp(std::mem::size_of::<aisle_messages::Header>(), size);
+    &message_bytes(m)[..used]
 }
 
 /// A received sample: dereferences to the message, in shared memory.

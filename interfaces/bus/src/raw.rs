@@ -1,21 +1,29 @@
 //! Ports whose message type is known only by the topic's name at run time (recorders,
 //! replays, the supervisor's retained state): payloads go in and out as the exact bytes
 //! that lie in shared memory. The type is looked up once, when the port is opened.
+//!
+//! A payload comes out as its used part ([`used_bytes`]): the bytes past it are zero,
+//! and a 16 MiB global map holding a 60 kB map is not read (nor its shared-memory pages
+//! faulted in) to its end. A payload goes in whole or as such a prefix.
 
-use crate::{Bus, BusError, Publisher, Subscriber, WaitOutcome, message_bytes};
+use crate::{Bus, BusError, Publisher, Subscriber, WaitOutcome, used_bytes};
 use aisle_messages::{Message, Topic, TopicVisitor, topics};
 use std::time::Duration;
 
 /// A publisher of recorded or retained payloads, whatever the message type.
 pub trait RawPublisher {
-    /// Publishes an exact copy of `bytes` (header included).
+    /// Publishes an exact copy of `bytes` (header included; a prefix of the message, the
+    /// rest zero).
     fn publish_raw(&mut self, bytes: &[u8]) -> Result<(), BusError>;
     /// Hands the history to subscribers that (re)joined.
     fn update_connections(&self) -> Result<(), BusError>;
 }
 
-/// A subscriber that hands out payloads as bytes, whatever the message type.
+/// A subscriber that hands out payloads as bytes, whatever the message type: each
+/// payload's used part ([`used_bytes`]), past which the message is zero.
 pub trait RawSubscriber {
+    /// The size of the topic's message type: what a payload is, zero-padded.
+    fn message_size(&self) -> usize;
     /// Calls `f` with the next payload in arrival order; false when none is waiting.
     fn receive_raw(&self, f: &mut dyn FnMut(&[u8])) -> Result<bool, BusError>;
     /// Replaces `copy` with the newest payload, if one arrived (older ones are dropped).
@@ -35,10 +43,13 @@ impl<M: Message> RawPublisher for Publisher<M> {
 }
 
 impl<M: Message> RawSubscriber for Subscriber<M> {
+    fn message_size(&self) -> usize {
+        std::mem::size_of::<M>()
+    }
     fn receive_raw(&self, f: &mut dyn FnMut(&[u8])) -> Result<bool, BusError> {
         match self.receive()? {
             Some(s) => {
-                f(message_bytes(&*s));
+                f(used_bytes(&*s));
                 Ok(true)
             }
             None => Ok(false),
@@ -48,7 +59,7 @@ impl<M: Message> RawSubscriber for Subscriber<M> {
         match self.latest()? {
             Some(s) => {
                 copy.clear();
-                copy.extend_from_slice(message_bytes(&*s));
+                copy.extend_from_slice(used_bytes(&*s));
                 Ok(true)
             }
             None => Ok(false),
@@ -57,7 +68,7 @@ impl<M: Message> RawSubscriber for Subscriber<M> {
     fn wait_raw(&self, timeout: Duration, f: &mut dyn FnMut(&[u8])) -> Result<bool, BusError> {
         match self.wait_for(timeout, |_| true, || {})? {
             (WaitOutcome::Matched, Some(s)) => {
-                f(message_bytes(&*s));
+                f(used_bytes(&*s));
                 Ok(true)
             }
             _ => Ok(false),

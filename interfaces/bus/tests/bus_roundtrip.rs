@@ -109,6 +109,76 @@ fn a_smaller_message_in_a_used_sample_leaves_no_trace_of_the_larger_one() {
 }
 
 #[test]
+fn raw_ports_carry_a_message_as_its_used_part_and_the_rest_arrives_zero() {
+    // A raw subscriber hands out the used part (a grid's cells in use, not its 16 MiB
+    // capacity); published again as that prefix into samples larger messages dirtied,
+    // typed and raw publishes in turn, each arrives with zeros past its own cells.
+    let inst = instance();
+    {
+        let (sup, _info) = Bus::create_instance(&inst, 3, TickMode::Lockstep).unwrap();
+        let raw_in = sup
+            .raw_subscriber(topics::GLOBAL_MAP.name)
+            .unwrap()
+            .unwrap();
+        let mut typed = sup.publisher(topics::GLOBAL_MAP).unwrap();
+        let mut raw_out = sup.raw_publisher(topics::GLOBAL_MAP.name).unwrap().unwrap();
+        let sub = sup.subscriber(topics::GLOBAL_MAP).unwrap();
+        let header = std::mem::size_of::<aisle_messages::Header>();
+        assert_eq!(
+            raw_in.message_size(),
+            std::mem::size_of::<aisle_messages::GlobalGrid>()
+        );
+        let sides = [2000usize, 30, 900, 7, 0, 1500];
+        for (tick, &side) in (1u64..).zip(sides.iter().cycle().take(18)) {
+            let stamp = Stamp {
+                stamp_ns: tick,
+                tick,
+                tick_wall_ns: 0,
+            };
+            let fill = 1 + (tick % 200) as u8;
+            typed
+                .publish(stamp, |m| {
+                    (m.width, m.height, m.version) = (side as u32, side as u32, tick);
+                    m.cells[..side * side].fill(fill);
+                })
+                .unwrap();
+            // The raw publisher's own messages arrive too: wait for this tick's.
+            let tick_of = |c: &[u8]| u64::from_ne_bytes(c[16..24].try_into().unwrap());
+            let mut copy = Vec::new();
+            while copy.is_empty() {
+                raw_in
+                    .receive_raw(&mut |b| {
+                        if tick_of(b) == tick {
+                            copy = b.to_vec()
+                        }
+                    })
+                    .unwrap();
+            }
+            assert_eq!(copy.len(), 96 + side * side, "tick {tick}: the used part");
+            // Every other tick goes out again raw, as the supervisor resends state.
+            if tick % 2 == 0 {
+                while sub.receive().unwrap().is_some() {}
+                raw_out.publish_raw(&copy).unwrap();
+            }
+            let (outcome, sample) = sub
+                .wait_for(Duration::from_secs(1), |m| m.header.tick == tick, || {})
+                .unwrap();
+            assert_eq!(outcome, WaitOutcome::Matched);
+            let m = sample.unwrap();
+            let used = side * side;
+            assert_eq!(m.version, tick);
+            assert!(m.cells[..used].iter().all(|&c| c == fill));
+            let stale = m.cells[used..].iter().position(|&c| c != 0);
+            assert_eq!(stale, None, "tick {tick}: a cell past {used} is not zero");
+        }
+        assert!(raw_out.publish_raw(&vec![0u8; header - 1]).is_err());
+        let too_long = vec![0u8; raw_in.message_size() + 1];
+        assert!(raw_out.publish_raw(&too_long).is_err());
+    }
+    inst.remove().unwrap();
+}
+
+#[test]
 fn a_wait_without_data_times_out() {
     let inst = instance();
     {

@@ -12,7 +12,9 @@ use crate::message;
 pub const MAX_CLOUD_ROWS: usize = 64;
 pub const MAX_CLOUD_COLS: usize = 2048;
 pub const MAX_CLOUD_POINTS: usize = MAX_CLOUD_ROWS * MAX_CLOUD_COLS;
-pub use crate::catalog_maps::{MAX_GRID_CELLS, MAX_GRID_SIDE, MAX_MAP_CHANGES};
+pub use crate::catalog_maps::{
+    MAX_GLOBAL_GRID_CELLS, MAX_GLOBAL_GRID_SIDE, MAX_GRID_CELLS, MAX_GRID_SIDE, MAX_MAP_CHANGES,
+};
 /// Parts of a docking body a plan request can name (a rack's four legs, and more).
 pub const MAX_DOCK_PARTS: usize = 8;
 /// Parts of bodies set down by the mission the mapper keeps as known obstacles (four

@@ -1,5 +1,5 @@
 //! The global map a subscriber holds, assembled from the two topics it crosses the bus
-//! on: the newest full map (`aisle/map/global`, an [`OccupancyGrid`]) and the newest
+//! on: the newest full map (`aisle/map/global`, a [`GlobalGrid`]) and the newest
 //! changes since it (`aisle/map/global_changes`, a [`MapChanges`]).
 //!
 //! Both topics keep only their newest sample, and the changes are cumulative since the
@@ -7,7 +7,7 @@
 //! subscriber that joined late, fell behind or restarted is exact again after one read
 //! of each. Knows the messages only; nothing of who publishes them or of the bus.
 
-use crate::{GridCopy, MapChanges, OccupancyGrid};
+use crate::{GlobalGrid, GridCopy, GridMessage, MapChanges};
 use aisle_geometry::{GridError, GridView};
 
 /// The held map: a copy of the newest full map with the newest applicable changes on it.
@@ -75,7 +75,7 @@ impl GlobalMapCopy {
     /// it). An error leaves the copy as the full map had it.
     pub fn update(
         &mut self,
-        full: Option<&OccupancyGrid>,
+        full: Option<&GlobalGrid>,
         changes: Option<&MapChanges>,
     ) -> Result<MapUpdate, MapChangesError> {
         let mut done = MapUpdate::default();
@@ -137,7 +137,7 @@ impl GlobalMapCopy {
         Ok(())
     }
 
-    /// The held map, checked as [`OccupancyGrid::view`] checks the message.
+    /// The held map, checked as [`GridMessage::view`] checks the message.
     pub fn view(&self) -> Result<GridView<'_>, GridError> {
         self.grid.view()
     }

@@ -1,35 +1,78 @@
-//! From an [`OccupancyGrid`] message to what algorithms read: a checked
-//! [`GridView`] of the message in place ([`OccupancyGrid::view`]), or an owned
-//! [`GridCopy`] a node keeps between messages.
+//! From a grid message ([`OccupancyGrid`], the local map, or [`GlobalGrid`], the global
+//! map: the same fields, different capacities) to what algorithms read: a checked
+//! [`GridView`] of the message in place ([`GridMessage::view`]), or an owned
+//! [`GridCopy`] a node keeps between messages; and back, a map written into a loaned
+//! message ([`GridMessage::write`]).
 //!
-//! Knows the message's fields and `aisle_geometry`'s grid types only; nothing of who
+//! Knows the messages' fields and `aisle_geometry`'s grid types only; nothing of who
 //! publishes the grid or what is planned on it.
 
-use crate::OccupancyGrid;
+use crate::{GlobalGrid, Message, OccupancyGrid};
 use aisle_geometry::{GridError, GridView};
 
-/// The first `width x height` cells of `m` (fewer if the message holds fewer).
-fn cells_of(m: &OccupancyGrid) -> &[u8] {
-    let n = (m.width as usize)
-        .saturating_mul(m.height as usize)
-        .min(m.cells.len());
-    &m.cells[..n]
-}
+/// What every grid message holds, whatever its capacity.
+pub trait GridMessage: Message {
+    /// `GridKind` code.
+    fn kind(&self) -> u32;
+    /// `width x height` in cells, as the message says (unchecked).
+    fn shape(&self) -> (u32, u32);
+    /// Origin corner (m) and resolution (m per cell), as the message says.
+    fn placement(&self) -> ((f64, f64), f64);
+    fn version(&self) -> u64;
+    /// Every cell the message can hold.
+    fn capacity_cells(&self) -> &[u8];
+    /// Writes `map` with its `kind` and `version` (the cells beyond it untouched).
+    fn write(&mut self, kind: u32, version: u64, map: &GridView<'_>);
 
-impl OccupancyGrid {
+    /// The first `width x height` cells (fewer if the message holds fewer).
+    fn cells_in_use(&self) -> &[u8] {
+        let (w, h) = self.shape();
+        let all = self.capacity_cells();
+        &all[..(w as usize).saturating_mul(h as usize).min(all.len())]
+    }
+
     /// The grid as a view into the message: an error when its resolution is not
     /// positive, it is empty, or `width x height` exceeds the cells it can hold.
-    pub fn view(&self) -> Result<GridView<'_>, GridError> {
-        GridView::new(
-            self.origin_x,
-            self.origin_y,
-            self.resolution,
-            self.width as usize,
-            self.height as usize,
-            cells_of(self),
-        )
+    fn view(&self) -> Result<GridView<'_>, GridError> {
+        let ((x, y), res) = self.placement();
+        let (w, h) = self.shape();
+        GridView::new(x, y, res, w as usize, h as usize, self.cells_in_use())
     }
 }
+
+/// The same fields in both messages, so one implementation.
+macro_rules! grid_message {
+    ($($t:ty),*) => {$(
+        impl GridMessage for $t {
+            fn kind(&self) -> u32 {
+                self.kind
+            }
+            fn shape(&self) -> (u32, u32) {
+                (self.width, self.height)
+            }
+            fn placement(&self) -> ((f64, f64), f64) {
+                ((self.origin_x, self.origin_y), self.resolution)
+            }
+            fn version(&self) -> u64 {
+                self.version
+            }
+            fn capacity_cells(&self) -> &[u8] {
+                &self.cells
+            }
+            fn write(&mut self, kind: u32, version: u64, map: &GridView<'_>) {
+                self.kind = kind;
+                self.width = map.width as u32;
+                self.height = map.height as u32;
+                self.origin_x = map.origin_x;
+                self.origin_y = map.origin_y;
+                self.resolution = map.resolution;
+                self.version = version;
+                self.cells[..map.cells.len()].copy_from_slice(map.cells);
+            }
+        }
+    )*};
+}
+grid_message!(OccupancyGrid, GlobalGrid);
 
 /// An owned copy of a grid message (geometry and cells), reusing its buffer from one
 /// copy to the next. Copies whatever the message holds; [`GridCopy::view`] checks it.
@@ -52,13 +95,12 @@ impl GridCopy {
     }
 
     /// Takes `m`'s geometry and its first `width x height` cells.
-    pub fn copy_from(&mut self, m: &OccupancyGrid) {
-        self.origin = (m.origin_x, m.origin_y);
-        self.resolution = m.resolution;
-        self.width = m.width as usize;
-        self.height = m.height as usize;
+    pub fn copy_from(&mut self, m: &impl GridMessage) {
+        (self.origin, self.resolution) = m.placement();
+        let (w, h) = m.shape();
+        (self.width, self.height) = (w as usize, h as usize);
         self.cells.clear();
-        self.cells.extend_from_slice(cells_of(m));
+        self.cells.extend_from_slice(m.cells_in_use());
     }
 
     /// Takes `other`'s geometry and its cells passed through `f` (a layer of a map,
@@ -92,7 +134,7 @@ impl GridCopy {
         self.cells.is_empty()
     }
 
-    /// The copy as a view, checked as [`OccupancyGrid::view`] checks the message.
+    /// The copy as a view, checked as [`GridMessage::view`] checks the message.
     pub fn view(&self) -> Result<GridView<'_>, GridError> {
         GridView::new(
             self.origin.0,
@@ -134,7 +176,7 @@ mod tests {
         assert_eq!((v.width, v.height, v.cells.len()), (3, 2, 6));
         let mut c = GridCopy::with_capacity(16);
         assert!(c.is_empty() && c.view().is_err());
-        c.copy_from(&m);
+        c.copy_from(&*m);
         let w = c.view().unwrap();
         assert_eq!((w.origin_x, w.origin_y, w.resolution), (-5.0, -10.0, 0.1));
         assert_eq!(w.cells, v.cells);
@@ -148,7 +190,32 @@ mod tests {
         assert!(bad.view().is_err());
         let huge = grid(u32::MAX, 2);
         assert!(huge.view().is_err());
-        c.copy_from(&huge);
+        c.copy_from(&*huge);
         assert!(c.view().is_err());
+    }
+
+    #[test]
+    fn a_map_written_into_either_message_reads_back_the_same() {
+        let local = grid(3, 2);
+        let map = local.view().unwrap();
+        let mut global = crate::zeroed_box::<GlobalGrid>();
+        global.write(0, 9, &map);
+        assert_eq!((global.kind(), global.version()), (0, 9));
+        let back = global.view().unwrap();
+        assert_eq!((back.width, back.height, back.cells), (3, 2, map.cells));
+        assert_eq!(
+            (back.origin_x, back.origin_y, back.resolution),
+            (-5.0, -10.0, 0.1)
+        );
+        // What the local map cannot hold, the global one can.
+        let (w, h) = (4000u32, 2000u32);
+        let cells = vec![1u8; (w * h) as usize];
+        let wide = GridView::new(0.0, 0.0, 0.05, w as usize, h as usize, &cells).unwrap();
+        assert!(wide.cells.len() > crate::MAX_GRID_CELLS);
+        global.write(0, 10, &wide);
+        assert_eq!(global.view().unwrap().cells.len(), (w * h) as usize);
+        assert_eq!(global.used_len(), 96 + (w * h) as usize);
+        (global.width, global.height) = (8192, 4096);
+        assert!(global.view().is_err(), "more cells than it holds");
     }
 }

@@ -120,6 +120,7 @@ catalogue!(
     message WorldTruth,
     message PointCloud,
     message OccupancyGrid,
+    message GlobalGrid,
     nested CellChangeMsg,
     message MapChanges,
     message MapperControl,

@@ -23,10 +23,10 @@ pub mod user_topics;
 pub mod wire;
 
 pub use catalog::*;
-pub use catalog_maps::{CellChangeMsg, MapChanges, OccupancyGrid};
+pub use catalog_maps::{CellChangeMsg, GlobalGrid, MapChanges, OccupancyGrid};
 pub use common::*;
 pub use global_map::{GlobalMapCopy, MapChangesError, MapUpdate};
-pub use grid::GridCopy;
+pub use grid::{GridCopy, GridMessage};
 pub use layout::{
     FieldLayout, Message, MessageTypeVisitor, ZeroedValid, all_layouts, message_type_names,
     schema_hash, schema_hash_hex, visit_message_type, zeroed_box,

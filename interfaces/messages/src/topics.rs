@@ -196,7 +196,7 @@ topics! {
     SIM_STATE: SimState = "aisle/sim_state", RETAINED;
     POINT_CLOUD: PointCloud = "aisle/lidar/points", SENSOR;
     /// The full global map: at start, and whenever its changes outgrow `MapChanges`.
-    GLOBAL_MAP: OccupancyGrid = "aisle/map/global", GLOBAL;
+    GLOBAL_MAP: GlobalGrid = "aisle/map/global", GLOBAL;
     /// The global map's changes since the newest full map (see `MapChanges`).
     GLOBAL_MAP_CHANGES: MapChanges = "aisle/map/global_changes", GLOBAL;
     LOCAL_MAP: OccupancyGrid = "aisle/map/local", SENSOR;

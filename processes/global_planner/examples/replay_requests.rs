@@ -24,7 +24,7 @@ use std::path::PathBuf;
 
 use aisle_global_planner::node::PlannerStage;
 use aisle_messages::{
-    Header, MapChanges, Message, OccupancyGrid, PlanRequest, PlanResponse, PlanStatus, TickMode,
+    GlobalGrid, Header, MapChanges, Message, PlanRequest, PlanResponse, PlanStatus, TickMode,
     topics,
 };
 use aisle_node::testing::MemIo;
@@ -151,7 +151,7 @@ fn main() -> Result<(), String> {
 fn start_stage(stage: &mut PlannerStage, map: &FileMessage) -> Result<(), String> {
     let io = MemIo::new();
     let mut err = Ok(());
-    io.push(topics::GLOBAL_MAP, |m: &mut OccupancyGrid| {
+    io.push(topics::GLOBAL_MAP, |m: &mut GlobalGrid| {
         err = copy_into(m, map)
     });
     err?;
@@ -195,7 +195,7 @@ fn replay_one(
         .ok_or("no map before a request")?;
     let io = MemIo::new();
     let mut err = Ok(());
-    io.push(topics::GLOBAL_MAP, |m: &mut OccupancyGrid| {
+    io.push(topics::GLOBAL_MAP, |m: &mut GlobalGrid| {
         err = copy_into(m, map)
     });
     err?;

@@ -14,7 +14,7 @@ use crate::{DockKind, DockSite, Placed, PlanErrorKind, PlanRequest, Planner, Pla
 use aisle_bus::{NodeArgs, NodeError, Stamp, clock};
 use aisle_geometry::{Footprint, OCCUPIED_DETECTED, Pose2};
 use aisle_messages::{
-    DockMove, GlobalMapCopy, GridCopy, MAX_PATH_POSES, MapChanges, NodeKind, OccupancyGrid,
+    DockMove, GlobalGrid, GlobalMapCopy, GridCopy, MAX_PATH_POSES, MapChanges, NodeKind,
     PlanRequest as PlanRequestMsg, PlanResponse, PlanStatus, RectMsg, StageStatus, Topic, topics,
 };
 use aisle_node::{Cycle, Io, RunContext, Stage};
@@ -38,7 +38,7 @@ fn static_cell(c: u8) -> u8 {
 fn update(
     map: &mut GlobalMapCopy,
     static_map: &mut GridCopy,
-    full: Option<&OccupancyGrid>,
+    full: Option<&GlobalGrid>,
     changes: Option<&MapChanges>,
 ) -> bool {
     match map.update(full, changes) {
@@ -305,7 +305,7 @@ mod tests {
 
     #[test]
     fn the_map_and_its_static_layer_follow_the_full_map_and_its_changes() {
-        let mut full = zeroed_box::<OccupancyGrid>();
+        let mut full = zeroed_box::<GlobalGrid>();
         (full.width, full.height, full.resolution, full.version) = (4, 2, 0.1, 3);
         full.cells[..8].copy_from_slice(&[1, 0, 2, 0, 0, 0, 0, 0]);
         let mut changes = zeroed_box::<MapChanges>();
@@ -331,7 +331,7 @@ mod tests {
         assert_eq!(map.view().unwrap().cells, &[1, 0, 0, 0, 0, 2, 0, 1]);
         assert_eq!(static_map.view().unwrap().cells, &[1, 0, 0, 0, 0, 0, 0, 1]);
         // An invalid full map is left out; the held one stays.
-        let mut bad = zeroed_box::<OccupancyGrid>();
+        let mut bad = zeroed_box::<GlobalGrid>();
         bad.version = 9;
         assert!(update(&mut map, &mut static_map, Some(&bad), None));
         assert_eq!(map.version(), 5);

@@ -3,6 +3,10 @@
 //! and the scaling with 10 / 100 / 1000 random boxes (seeded) in the seed's 20 x 30 m
 //! (so the density grows with the count).
 //!
+//! `size`: the storage lane in the seed and in the middle room of the seed repeated 10 x
+//! 10 times (200 x 300 m, 5,100 bodies): the same surroundings in a scene 100 times the
+//! area, level and tilted.
+//!
 //! `generated`: warehouses from `aisle_config::scene_gen` (the code behind `aisle scene
 //! generate`, seeded) of about 1,000 / 5,000 / 20,000 bodies, and the shipped large
 //! one's parameters (19 aisles x 172 m, about 100 x 200 m). What is held fixed is the
@@ -158,6 +162,34 @@ fn scans(c: &mut Criterion) {
     g.finish();
 }
 
+/// Size alone: the seed's lane, level and tilted, in the seed and in the middle room of
+/// the seed repeated 10 x 10 times (200 x 300 m, 5,100 bodies).
+fn size(c: &mut Criterion) {
+    let mut quiet = LidarConfig::default();
+    quiet.noise.enabled = false;
+    let seed = warehouse();
+    let (tiled, (dx, dy)) = cases::seed_tiled(&seed, cases::SEED_TILES);
+    let mut g = c.benchmark_group("size");
+    g.throughput(Throughput::Elements(37_231));
+    for (label, scene, (x, y)) in [("seed", &seed, (0.0, 0.0)), ("seed x100", &tiled, (dx, dy))] {
+        let mut r = Raycaster::new(&quiet, scene).expect("raycaster");
+        let mut out = vec![[0.0f32; 3]; r.len()];
+        let robot = Pose2::new(2.0 + x, 11.0 + y, std::f64::consts::FRAC_PI_2);
+        for tilted in [false, true] {
+            let pose = on_robot(&robot, tilted);
+            let kind = if tilted { "tilted" } else { "level" };
+            let n = scene.bodies.len();
+            g.bench_function(format!("{kind} lane, {label} ({n} bodies)"), |b| {
+                b.iter(|| {
+                    r.scan(black_box(&pose), 0, &mut out).expect("scan");
+                    black_box(&out);
+                })
+            });
+        }
+    }
+    g.finish();
+}
+
 fn generated(c: &mut Criterion) {
     let mut quiet = LidarConfig::default();
     quiet.noise.enabled = false;
@@ -194,5 +226,5 @@ fn generated(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, scans, generated);
+criterion_group!(benches, scans, size, generated);
 criterion_main!(benches);

@@ -12,21 +12,24 @@ use aisle_config::{InvalidKey, Validate};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
-/// Cells per metre above this would make a 20 x 30 m map exceed the 2^21 cells a grid
-/// message holds; far finer than a lidar at 12 m can resolve anyway.
+/// Cells per metre above this are far finer than a lidar at 12 m can resolve.
 const MAX_CELLS_PER_METRE: f64 = 50.0;
 
-/// Most cells a grid may have, the capacity of the grid message (2^21 cells in any
-/// shape: a 100 x 200 m warehouse at 10 cells/m is 1000 x 2000); kept here so the
-/// algorithm does not depend on the message crate. The node adapter asserts the two
-/// agree.
+/// Most cells the local map may have, the capacity of its message (`OccupancyGrid`,
+/// 2^21 cells in any shape); kept here so the algorithm does not depend on the message
+/// crate. The node adapter asserts the limits here and there agree.
 pub const MAX_GRID_CELLS: usize = 1 << 21;
+/// Longest local map side, in cells (at most `MAX_GRID_CELLS` in all).
+pub const MAX_GRID_SIDE: usize = 4096;
+/// Most cells the global map may have, the capacity of its message (`GlobalGrid`, 2^24
+/// cells: a 100 x 200 m warehouse at 20 cells/m is 2000 x 4000).
+pub const MAX_GLOBAL_GRID_CELLS: usize = 1 << 24;
+/// Longest global map side, in cells.
+pub const MAX_GLOBAL_GRID_SIDE: usize = 8192;
 /// Changed cells the node lists before it publishes the map whole again (the
 /// `MapChanges` capacity): the change log reserves this many, so listing them allocates
 /// nothing.
 pub const MAX_LISTED_CHANGES: usize = 1 << 14;
-/// Longest grid side, in cells (a grid is at most `MAX_GRID_CELLS` in all).
-pub const MAX_GRID_SIDE: usize = 4096;
 
 /// The rolling local map handed to the controller every tick.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -160,22 +163,24 @@ impl Validate for MapConfig {
                     ),
                 ));
             }
-            if (v * self.cells_per_metre).round() > MAX_GRID_SIDE as f64 {
+            if (v * self.cells_per_metre).round() > MAX_GLOBAL_GRID_SIDE as f64 {
                 return Err(invalid(
                     "size",
                     format!(
-                        "{v} m is more than {} cells, the largest grid a message holds",
-                        MAX_GRID_SIDE
+                        "{v} m is more than {MAX_GLOBAL_GRID_SIDE} cells at {} cells/m, the \
+                         longest side a global map message holds",
+                        self.cells_per_metre
                     ),
                 ));
             }
         }
         let cells = self.size.map(|v| (v * self.cells_per_metre).round());
-        if cells[0] * cells[1] > MAX_GRID_CELLS as f64 {
+        if cells[0] * cells[1] > MAX_GLOBAL_GRID_CELLS as f64 {
             return Err(invalid(
                 "size",
                 format!(
-                    "{} x {} cells is more than the {MAX_GRID_CELLS} cells a grid message holds",
+                    "{} x {} cells is more than the {MAX_GLOBAL_GRID_CELLS} cells a global map \
+                     message holds",
                     cells[0], cells[1]
                 ),
             ));
@@ -190,10 +195,13 @@ impl Validate for MapConfig {
         }
         positive("local.size", self.local.size)?;
         let local = (self.local.size * self.cells_per_metre).round();
-        if local * local > MAX_GRID_CELLS as f64 {
+        if local > MAX_GRID_SIDE as f64 || local * local > MAX_GRID_CELLS as f64 {
             return Err(invalid(
                 "local.size",
-                "more cells than the largest grid a message holds",
+                format!(
+                    "{local} x {local} cells is more than a local map message holds \
+                     ({MAX_GRID_CELLS} cells, {MAX_GRID_SIDE} a side)"
+                ),
             ));
         }
         interval("obstacles.height_band", self.obstacles.height_band)?;
@@ -266,19 +274,19 @@ mod tests {
         let e = load::<MapConfig>(&path).unwrap_err().to_string();
         assert!(e.contains("obstacles.clear_radius"), "{e}");
         assert!(e.contains("half a cell"), "{e}");
-        // Any shape up to the cells a grid message holds: 100 x 200 m fits, 150 x 150 m
-        // not, nor a side over 4096 cells.
-        std::fs::write(&path, "size = [100.0, 200.0]\n").unwrap();
+        // Any shape up to the cells the global map message holds: 100 x 200 m fits at 20
+        // cells/m, 410 x 410 m not at 10, nor a side over 8192 cells.
+        std::fs::write(&path, "cells_per_metre = 20.0\nsize = [100.0, 200.0]\n").unwrap();
         load::<MapConfig>(&path).unwrap();
-        std::fs::write(&path, "size = [150.0, 150.0]\n").unwrap();
+        std::fs::write(&path, "size = [410.0, 410.0]\n").unwrap();
         let e = load::<MapConfig>(&path).unwrap_err().to_string();
         assert!(
-            e.contains("key `size`") && e.contains("2097152 cells"),
+            e.contains("key `size`") && e.contains("16777216 cells"),
             "{e}"
         );
-        std::fs::write(&path, "size = [420.0, 10.0]\n").unwrap();
+        std::fs::write(&path, "size = [820.0, 10.0]\n").unwrap();
         let e = load::<MapConfig>(&path).unwrap_err().to_string();
-        assert!(e.contains("key `size`") && e.contains("4096"), "{e}");
+        assert!(e.contains("key `size`") && e.contains("8192"), "{e}");
         std::fs::write(&path, "cell_per_metre = 10.0\n").unwrap();
         let e = load::<MapConfig>(&path).unwrap_err().to_string();
         assert!(e.contains("mapper.toml:1:"), "{e}");

@@ -6,7 +6,9 @@
 
 use crate::changes::ChangeLog;
 use crate::cloud::BeamGeometry;
-use crate::config::{MAX_GRID_CELLS, MAX_GRID_SIDE, MapConfig};
+use crate::config::{
+    MAX_GLOBAL_GRID_CELLS, MAX_GLOBAL_GRID_SIDE, MAX_GRID_CELLS, MAX_GRID_SIDE, MapConfig,
+};
 use crate::error::MapError;
 use crate::local_map::{LocalMapInfo, extract_local};
 use crate::obstacle_layer::{ObstacleLayer, Scan, ScanStats};
@@ -60,18 +62,18 @@ impl Mapper {
             }
         }
         let side = static_map.width.max(static_map.height);
-        if side > MAX_GRID_SIDE {
+        if side > MAX_GLOBAL_GRID_SIDE {
             return Err(MapError::TooMany {
                 what: "global map cells per side",
                 got: side,
-                max: MAX_GRID_SIDE,
+                max: MAX_GLOBAL_GRID_SIDE,
             });
         }
-        if static_map.cells.len() > MAX_GRID_CELLS {
+        if static_map.cells.len() > MAX_GLOBAL_GRID_CELLS {
             return Err(MapError::TooMany {
                 what: "global map cells",
                 got: static_map.cells.len(),
-                max: MAX_GRID_CELLS,
+                max: MAX_GLOBAL_GRID_CELLS,
             });
         }
         let local_side = (cfg.local.size / static_map.resolution).round().max(1.0) as usize;
@@ -128,7 +130,9 @@ impl Mapper {
             .set(parts, &mut self.static_map, &mut self.global);
         if changed {
             self.version += 1;
-            self.changes.note(&self.global.cells, 0..=usize::MAX);
+            for span in self.placed.changed_spans() {
+                self.changes.note(&self.global.cells, span);
+            }
         }
         changed
     }
@@ -147,7 +151,7 @@ impl Mapper {
         self.static_map.view()
     }
 
-    /// Counts changes of the global map (0 at start); the `OccupancyGrid.version` field.
+    /// Counts changes of the global map (0 at start); the `GlobalGrid.version` field.
     pub fn version(&self) -> u64 {
         self.version
     }

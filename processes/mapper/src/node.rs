@@ -16,7 +16,7 @@ use crate::{
 use aisle_bus::{NodeArgs, NodeError, StageTimer, Stamp};
 use aisle_geometry::{Footprint, GridView, Pose2};
 use aisle_messages::{
-    GlobalMapCopy, GridKind, MAX_MAP_CHANGES, NodeKind, OccupancyGrid, PointCloud, RectMsg,
+    GlobalMapCopy, GridKind, GridMessage, MAX_MAP_CHANGES, NodeKind, PointCloud, RectMsg,
     StageStatus, Topic, topics,
 };
 use aisle_node::{Cycle, Io, RunContext, Stage};
@@ -80,24 +80,15 @@ fn publish_changes(io: &impl Io, stamp: Stamp, mapper: &Mapper) -> Result<(), No
     })
 }
 
-fn publish_grid(
+fn publish_grid<G: GridMessage>(
     io: &impl Io,
-    topic: Topic<OccupancyGrid>,
+    topic: Topic<G>,
     stamp: Stamp,
     kind: GridKind,
     version: u64,
     map: &GridView<'_>,
 ) -> Result<(), NodeError> {
-    io.publish(topic, stamp, |m| {
-        m.kind = kind as u32;
-        m.width = map.width as u32;
-        m.height = map.height as u32;
-        m.origin_x = map.origin_x;
-        m.origin_y = map.origin_y;
-        m.resolution = map.resolution;
-        m.version = version;
-        m.cells[..map.cells.len()].copy_from_slice(map.cells);
-    })
+    io.publish(topic, stamp, |m| m.write(kind as u32, version, map))
 }
 
 /// The mapper as a stage: one cycle per point cloud, in arrival order.
@@ -124,17 +115,20 @@ impl MapperStage {
             load_static_map(&cfg, &config_dir.join("warehouse.toml")).map_err(|e| {
                 NodeError::setup(format!("mapper: static map ({})", mapper_toml.display()), e)
             })?;
-        const _: () = assert!(crate::config::MAX_GRID_CELLS == aisle_messages::MAX_GRID_CELLS);
-        const _: () = assert!(crate::config::MAX_GRID_SIDE == aisle_messages::MAX_GRID_SIDE);
+        use crate::config as own;
+        const _: () = assert!(own::MAX_GRID_CELLS == aisle_messages::MAX_GRID_CELLS);
+        const _: () = assert!(own::MAX_GRID_SIDE == aisle_messages::MAX_GRID_SIDE);
+        const _: () = assert!(own::MAX_GLOBAL_GRID_CELLS == aisle_messages::MAX_GLOBAL_GRID_CELLS);
+        const _: () = assert!(own::MAX_GLOBAL_GRID_SIDE == aisle_messages::MAX_GLOBAL_GRID_SIDE);
         const _: () = assert!(crate::config::MAX_LISTED_CHANGES == aisle_messages::MAX_MAP_CHANGES);
-        if static_map.cells.len() > aisle_messages::MAX_GRID_CELLS {
+        if static_map.cells.len() > aisle_messages::MAX_GLOBAL_GRID_CELLS {
             return Err(NodeError::setup(
                 format!("mapper: {}", mapper_toml.display()),
                 format!(
-                    "a {} x {} map exceeds the OccupancyGrid capacity of {} cells",
+                    "a {} x {} map exceeds the GlobalGrid capacity of {} cells",
                     static_map.width,
                     static_map.height,
-                    aisle_messages::MAX_GRID_CELLS
+                    aisle_messages::MAX_GLOBAL_GRID_CELLS
                 ),
             ));
         }

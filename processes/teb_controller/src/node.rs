@@ -146,7 +146,7 @@ impl ControllerStage {
             TickMode::Lockstep => {
                 match io.wait_for(topics::LOCAL_MAP, MAP_TIMEOUT, |m| m.header.tick >= k)? {
                     Some(m) => {
-                        self.map.copy_from(&m);
+                        self.map.copy_from(&*m);
                         self.map_made = Produced::of(&m.header);
                     }
                     None => {
@@ -158,7 +158,7 @@ impl ControllerStage {
             }
             TickMode::Realtime => {
                 if let Some(m) = io.latest(topics::LOCAL_MAP)? {
-                    self.map.copy_from(&m);
+                    self.map.copy_from(&*m);
                     self.map_made = Produced::of(&m.header);
                 }
             }

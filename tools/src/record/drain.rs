@@ -155,8 +155,9 @@ fn drain_sources(
         loop {
             let log_time = clock::monotonic_ns();
             let mut job = None;
-            let got =
-                src.receive_raw(&mut |bytes| job = taker.take(i, log_time, bytes, summary))?;
+            let size = src.message_size();
+            let got = src
+                .receive_raw(&mut |bytes| job = taker.take(i, log_time, (bytes, size), summary))?;
             if !got {
                 break;
             }
@@ -197,7 +198,7 @@ impl Taker<'_> {
         &mut self,
         i: usize,
         log_time: u64,
-        bytes: &[u8],
+        (bytes, full_len): (&[u8], usize),
         summary: &mut RecordSummary,
     ) -> Option<Job> {
         if u32_at(bytes, SOURCE_AT) != NodeKind::Recorder.code() {
@@ -224,8 +225,8 @@ impl Taker<'_> {
             }
             SeqVerdict::New { .. } => {}
         }
-        // Only the used part is copied out of shared memory (the unused capacity of
-        // clouds and grids is zero): less time in this thread.
+        // Only the used part is copied out of shared memory (the port hands out the used
+        // part of clouds and grids, and trailing zeros are cut): less time in this thread.
         let used = &bytes[..trimmed_len(bytes)];
         if self.queued.load(Ordering::Relaxed) + used.len() > self.options.queue_bytes {
             *summary.lost_in_queue.entry(self.names[i]).or_default() += 1;
@@ -238,7 +239,7 @@ impl Taker<'_> {
             index: i,
             log_time,
             buf,
-            full_len: bytes.len(),
+            full_len,
         })
     }
 }

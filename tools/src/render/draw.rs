@@ -10,7 +10,8 @@ use super::legend::{
 use super::run::{BodyKind, MovableBody, Run};
 use super::{Layers, RenderError};
 use crate::fonts::FAMILY;
-use aisle_messages::{MissionState, OccupancyGrid};
+use aisle_geometry::GridView;
+use aisle_messages::MissionState;
 use plotters::coord::Shift;
 use plotters::coord::types::RangedCoordf64;
 use plotters::element::DashedPathElement;
@@ -56,12 +57,12 @@ impl Layout {
 
 /// The world rectangle to draw: the map, else everything recorded plus a margin.
 pub(super) fn extent(run: &Run) -> Option<(f64, f64, f64, f64)> {
-    if let Some(g) = &run.map {
+    if let Some(g) = run.map_view() {
         return Some((
             g.origin_x,
             g.origin_y,
-            f64::from(g.width) * g.resolution,
-            f64::from(g.height) * g.resolution,
+            g.width as f64 * g.resolution,
+            g.height as f64 * g.resolution,
         ));
     }
     let mut pts: Vec<(f64, f64)> = run.driven.iter().map(|p| (p.x, p.y)).collect();
@@ -148,8 +149,8 @@ pub(super) fn draw<DB: DrawingBackend>(
         .axis_desc_style((FAMILY, 14))
         .draw()?;
     grid(&mut chart, layout.extent)?;
-    if let Some(g) = &run.map {
-        map_cells(&mut chart, g)?;
+    if let Some(g) = run.map_view() {
+        map_cells(&mut chart, &g)?;
     }
     for b in &run.statics {
         chart.draw_series([outline(b[0], b[1], b[2], b[3], b[4], STATIC_BODY, 1)])?;
@@ -202,11 +203,11 @@ fn grid<DB: DrawingBackend>(
 /// Static and detected cells, as one rectangle per run of equal cells in a row.
 fn map_cells<DB: DrawingBackend>(
     chart: &mut Chart<'_, DB>,
-    g: &OccupancyGrid,
+    g: &GridView<'_>,
 ) -> DrawResult<(), DB> {
-    let (w, r) = (g.width as usize, g.resolution);
+    let (w, r) = (g.width, g.resolution);
     let mut rects = Vec::new();
-    for row in 0..g.height as usize {
+    for row in 0..g.height {
         let cells = &g.cells[row * w..(row + 1) * w];
         let mut col = 0;
         while col < w {

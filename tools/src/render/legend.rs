@@ -38,7 +38,7 @@ pub(super) fn leg_color(leg: usize) -> RGBColor {
 /// The legend's entries, top to bottom, for the layers drawn.
 pub(crate) fn legend_entries(run: &Run, layers: Layers) -> Vec<(Swatch, String)> {
     let mut out = vec![(Swatch::Fill(STATIC_CELL), "static map".to_string())];
-    if run.map.as_ref().is_some_and(|g| g.cells.contains(&2)) {
+    if run.map_view().is_some_and(|g| g.cells.contains(&2)) {
         out.push((Swatch::Fill(DETECTED), "detected by the lidar".into()));
     }
     if !run.statics.is_empty() {

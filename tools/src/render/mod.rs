@@ -237,12 +237,9 @@ impl Prepared {
 
     fn summary(&self) -> RenderSummary {
         let run = &self.run;
-        let detected_cells = run.map.as_ref().map_or(0, |g| {
-            g.cells[..g.width as usize * g.height as usize]
-                .iter()
-                .filter(|&&v| v == 2)
-                .count()
-        });
+        let detected_cells = run
+            .map_view()
+            .map_or(0, |g| g.cells.iter().filter(|&&v| v == 2).count());
         RenderSummary {
             width: self.layout.width,
             height: self.layout.height,

@@ -8,11 +8,12 @@
 
 use super::RenderOptions;
 use crate::reader::RecordFile;
+use aisle_geometry::GridView;
 use aisle_messages::topics::names as s;
 use aisle_messages::{
-    BodyTruth, ControllerBand, ControllerGoal, GlobalMapCopy, MAX_BODIES, MAX_COMMANDS,
-    MAX_GRID_CELLS, MAX_PATH_POSES, MapChanges, MissionState, MissionStatus, OccupancyGrid,
-    RobotState, WorldTruth, read_name,
+    BodyTruth, ControllerBand, ControllerGoal, GlobalGrid, GlobalMapCopy, GridCopy, GridMessage,
+    MAX_BODIES, MAX_COMMANDS, MAX_PATH_POSES, MapChanges, MissionState, MissionStatus, RobotState,
+    WorldTruth, read_name,
 };
 use std::path::Path;
 
@@ -95,7 +96,8 @@ pub struct Turn {
 /// Everything read from one record.
 #[derive(Default)]
 pub struct Run {
-    pub map: Option<Box<OccupancyGrid>>,
+    /// The global map at the end (a valid grid).
+    pub map: Option<GridCopy>,
     pub statics: Vec<StaticBox>,
     pub movables: Vec<MovableBody>,
     /// Leg names by index (from `MissionStatus.text` while the leg ran; "leg N" when
@@ -115,6 +117,11 @@ pub struct Run {
 impl Run {
     pub fn end_time(&self) -> f64 {
         self.driven.last().map_or(0.0, |d| d.t)
+    }
+
+    /// The global map at the end, if the record had a valid one.
+    pub fn map_view(&self) -> Option<GridView<'_>> {
+        self.map.as_ref().and_then(|m| m.view().ok())
     }
 }
 
@@ -169,22 +176,8 @@ fn kind_of(name: &str, kinds: &[(String, String)], carried: bool) -> BodyKind {
 
 /// Reads `file` into a [`Run`].
 /// Whether a full map's geometry can be drawn.
-fn drawable(g: &OccupancyGrid) -> bool {
-    (g.width as usize).saturating_mul(g.height as usize) <= MAX_GRID_CELLS
-        && g.width > 0
-        && g.resolution > 0.0
-        && finite(&[g.origin_x, g.origin_y, g.resolution])
-}
-
-/// The held global map as a grid message, the form the drawing reads.
-fn map_of(global: &GlobalMapCopy) -> Option<Box<OccupancyGrid>> {
-    let g = global.view().ok()?;
-    let mut copy = crate::aligned::zeroed_box::<OccupancyGrid>();
-    (copy.width, copy.height) = (g.width as u32, g.height as u32);
-    (copy.origin_x, copy.origin_y, copy.resolution) = (g.origin_x, g.origin_y, g.resolution);
-    copy.version = global.version();
-    copy.cells[..g.cells.len()].copy_from_slice(g.cells);
-    Some(copy)
+fn drawable(g: &GlobalGrid) -> bool {
+    g.view().is_ok() && finite(&[g.origin_x, g.origin_y, g.resolution])
 }
 
 pub fn collect(file: &RecordFile, opts: &RenderOptions) -> Run {
@@ -204,7 +197,7 @@ pub fn collect(file: &RecordFile, opts: &RenderOptions) -> Run {
     let truncated = file.for_each_payload(|topic, buf| match topic {
         // A full map or changes that do not fit are left out.
         s::GLOBAL_MAP => {
-            if let Some(g) = buf.view::<OccupancyGrid>().filter(|g| drawable(g)) {
+            if let Some(g) = buf.view::<GlobalGrid>().filter(|g| drawable(g)) {
                 let _ = global.update(Some(g), None);
             }
         }
@@ -270,7 +263,7 @@ pub fn collect(file: &RecordFile, opts: &RenderOptions) -> Run {
         _ => {}
     });
     run.truncated = truncated;
-    run.map = map_of(&global);
+    run.map = global.view().is_ok().then(|| global.grid().clone());
     for b in &mut run.movables {
         b.kind = kind_of(&b.name, &kinds, b.poses.iter().any(|p| p.carried));
     }

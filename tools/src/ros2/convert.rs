@@ -12,8 +12,8 @@ use super::{Frame, RosTopic};
 use crate::aligned::AlignedBuf;
 use aisle_messages::topics::names as s;
 use aisle_messages::{
-    ControllerBand, ControllerGoal, GlobalMapCopy, MAX_CLOUD_POINTS, MAX_COMMANDS, MAX_GRID_CELLS,
-    MAX_PATH_POSES, MapChanges, OccupancyGrid, PointCloud, RobotState, Trajectory,
+    ControllerBand, ControllerGoal, GlobalGrid, GlobalMapCopy, GridMessage, MAX_CLOUD_POINTS,
+    MAX_COMMANDS, MAX_PATH_POSES, MapChanges, OccupancyGrid, PointCloud, RobotState, Trajectory,
 };
 
 /// One encoded ROS 2 message.
@@ -71,7 +71,7 @@ impl RosConverter {
         let converted = match service {
             s::POINT_CLOUD => msg.view::<PointCloud>().map(|m| self.cloud(m, out)),
             s::GLOBAL_MAP => msg
-                .view::<OccupancyGrid>()
+                .view::<GlobalGrid>()
                 .map(|m| self.global(m.header.stamp_ns, Some(m), None, out)),
             s::GLOBAL_MAP_CHANGES => msg
                 .view::<MapChanges>()
@@ -144,7 +144,7 @@ impl RosConverter {
     fn global(
         &mut self,
         stamp: u64,
-        full: Option<&OccupancyGrid>,
+        full: Option<&GlobalGrid>,
         changes: Option<&MapChanges>,
         out: &mut Vec<RosMessage>,
     ) -> Result<bool, Error> {
@@ -225,11 +225,8 @@ impl RosConverter {
 
 type Error = cdr_encoding::Error;
 
+/// A grid that is not valid (see [`GridMessage::view`]) is skipped.
 fn grid(topic: RosTopic, m: &OccupancyGrid, out: &mut Vec<RosMessage>) -> Result<bool, Error> {
-    let (w, h) = (m.width as usize, m.height as usize);
-    if w.checked_mul(h).is_none_or(|n| n > MAX_GRID_CELLS) {
-        return Ok(false);
-    }
     match m.view() {
         Ok(view) => grid_of(topic, m.header.stamp_ns, &view, out),
         Err(_) => Ok(false),

@@ -5,7 +5,7 @@
 use super::*;
 use crate::aligned::{AlignedBuf, message_bytes, zeroed_box};
 use aisle_messages::topics::names as s;
-use aisle_messages::{ControllerGoal, OccupancyGrid, PointCloud, RobotState};
+use aisle_messages::{ControllerGoal, GlobalGrid, OccupancyGrid, PointCloud, RobotState};
 
 fn buf<M: aisle_messages::Message>(m: &M) -> AlignedBuf {
     AlignedBuf::from_bytes(message_bytes(m))
@@ -38,8 +38,8 @@ fn grid_cells_follow_the_ros_convention() {
     assert_eq!(&d[d.len() - 6..], &[0, 100, 100, 0, 0xff, 100]);
     // An impossible size or resolution yields nothing and is counted.
     let mut conv = RosConverter::default();
-    g.width = 5000;
-    g.height = 5000;
+    let mut g = zeroed_box::<GlobalGrid>();
+    (g.width, g.height, g.resolution) = (5000, 5000, 0.25);
     assert!(convert(&mut conv, s::GLOBAL_MAP, &buf(&*g)).is_empty());
     g.width = 3;
     g.resolution = f64::NAN;
@@ -49,7 +49,7 @@ fn grid_cells_follow_the_ros_convention() {
 
 #[test]
 fn the_map_is_the_full_map_with_its_newest_changes() {
-    let mut g = zeroed_box::<OccupancyGrid>();
+    let mut g = zeroed_box::<GlobalGrid>();
     (g.width, g.height, g.resolution, g.version) = (3, 2, 0.25, 2);
     let mut conv = RosConverter::default();
     let cells = |out: &[RosMessage]| out[0].data[out[0].data.len() - 6..].to_vec();

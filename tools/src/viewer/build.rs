@@ -6,7 +6,7 @@
 
 use super::{ViewerMessage, ViewerTopic};
 use aisle_geometry::GridView;
-use aisle_messages::{MAX_GRID_CELLS, OccupancyGrid};
+use aisle_messages::{GridMessage, OccupancyGrid};
 use foxglove::Encode;
 use foxglove::messages as fg;
 
@@ -26,11 +26,8 @@ pub(super) fn path(
     encode(topic, stamp_ns, &msg)
 }
 
+/// `m` as a Foxglove grid; `None` when it is not a valid grid ([`GridMessage::view`]).
 pub(super) fn grid(m: &OccupancyGrid) -> Option<fg::Grid> {
-    let (w, h) = (m.width as usize, m.height as usize);
-    if w.checked_mul(h)? > MAX_GRID_CELLS {
-        return None;
-    }
     grid_of_view(m.header.stamp_ns, &m.view().ok()?)
 }
 
@@ -40,7 +37,7 @@ pub(super) fn grid_of_view(stamp_ns: u64, g: &GridView<'_>) -> Option<fg::Grid> 
     let (w, h) = (g.width, g.height);
     if w == 0
         || h == 0
-        || w.checked_mul(h)? > MAX_GRID_CELLS
+        || w.checked_mul(h)? != g.cells.len()
         || g.resolution.is_nan()
         || g.resolution <= 0.0
     {

@@ -12,9 +12,10 @@ use crate::aligned::AlignedBuf;
 use crate::payload_fields::{STAMP_AT, u64_at};
 use aisle_messages::topics::names as s;
 use aisle_messages::{
-    ControllerBand, ControllerGoal, GlobalMapCopy, Header, Heartbeat, MAX_BODIES, MAX_CLOUD_POINTS,
-    MAX_COMMANDS, MAX_PATH_POSES, MapChanges, MissionState, MissionStatus, NodeKind, NodeState,
-    OccupancyGrid, PointCloud, RobotState, TickDone, Trajectory, WorldTruth, read_name,
+    ControllerBand, ControllerGoal, GlobalGrid, GlobalMapCopy, Header, Heartbeat, MAX_BODIES,
+    MAX_CLOUD_POINTS, MAX_COMMANDS, MAX_PATH_POSES, MapChanges, MissionState, MissionStatus,
+    NodeKind, NodeState, OccupancyGrid, PointCloud, RobotState, TickDone, Trajectory, WorldTruth,
+    read_name,
 };
 use foxglove::messages as fg;
 
@@ -170,7 +171,7 @@ impl ViewerConverter {
                 }
             }
             s::GLOBAL_MAP => {
-                if let Some(m) = msg.view::<OccupancyGrid>()
+                if let Some(m) = msg.view::<GlobalGrid>()
                     && self.global.update(Some(m), None).is_ok_and(|u| u.full)
                 {
                     self.send_global(m.header.stamp_ns, out);

@@ -183,7 +183,7 @@ mod tests {
     use crate::aligned::{AlignedBuf, message_bytes, zeroed_box};
     use aisle_messages::topics::names as s;
     use aisle_messages::write_name;
-    use aisle_messages::{MissionStatus, OccupancyGrid, PointCloud, RobotState, WorldTruth};
+    use aisle_messages::{GlobalGrid, MissionStatus, PointCloud, RobotState, WorldTruth};
     use foxglove::Decode;
 
     fn buf<M: aisle_messages::Message>(m: &M) -> AlignedBuf {
@@ -192,7 +192,7 @@ mod tests {
 
     #[test]
     fn grid_keeps_cells_row_major_from_the_origin() {
-        let mut g = zeroed_box::<OccupancyGrid>();
+        let mut g = zeroed_box::<GlobalGrid>();
         g.width = 3;
         g.height = 2;
         g.resolution = 0.1;
@@ -213,6 +213,7 @@ mod tests {
         // An impossible size yields nothing rather than a panic.
         g.width = 5000;
         g.height = 5000;
+        const { assert!(5000 * 5000 > aisle_messages::MAX_GLOBAL_GRID_CELLS) };
         out.clear();
         ViewerConverter::default().convert(s::GLOBAL_MAP, &buf(&*g), &mut out);
         assert!(out.is_empty());
@@ -220,7 +221,7 @@ mod tests {
 
     #[test]
     fn the_global_map_is_sent_whole_at_once_and_its_changes_at_most_once_a_second() {
-        let mut g = zeroed_box::<OccupancyGrid>();
+        let mut g = zeroed_box::<GlobalGrid>();
         (g.width, g.height, g.resolution, g.version) = (3, 2, 0.1, 4);
         let mut c = zeroed_box::<aisle_messages::MapChanges>();
         (c.base_version, c.width, c.height, c.len) = (4, 3, 2, 1);

@@ -1,8 +1,8 @@
 use super::*;
 use crate::{CellChangeMsg, MAX_MAP_CHANGES, zeroed_box};
 
-fn full(version: u64, cells: &[u8]) -> Box<OccupancyGrid> {
-    let mut m = zeroed_box::<OccupancyGrid>();
+fn full(version: u64, cells: &[u8]) -> Box<GlobalGrid> {
+    let mut m = zeroed_box::<GlobalGrid>();
     (m.width, m.height, m.resolution) = (cells.len() as u32 / 2, 2, 0.1);
     m.version = version;
     m.cells[..cells.len()].copy_from_slice(cells);

@@ -34,3 +34,35 @@ pub fn on_robot(robot: &Pose2, tilted: bool) -> SensorPose {
     let rpy = if tilted { [0.05, -0.1, 0.0] } else { [0.0; 3] };
     SensorPose::on_robot(robot, &SensorPose::from_xyz_rpy([0.25, 0.1, 0.2], rpy))
 }
+
+/// Rooms per side of [`seed_tiled`]: 10 x 10 seed warehouses, 200 x 300 m and 5,100
+/// bodies, larger than `config/large` and as dense as the seed.
+pub const SEED_TILES: usize = 10;
+
+/// The seed warehouse (`seed`, a 20 x 30 m room with its walls) repeated `n x n` times
+/// side by side, and the offset of the middle room: the same scene at `n^2` times the
+/// area, so a scan from the same pose in the middle room shows what size alone costs
+/// (the generated warehouses are denser than the seed, which costs on its own).
+pub fn seed_tiled(
+    seed: &aisle_config::scene::Scene,
+    n: usize,
+) -> (aisle_config::scene::Scene, (f64, f64)) {
+    let (w, h) = (20.0, 30.0);
+    let mut bodies = Vec::with_capacity(seed.bodies.len() * n * n);
+    for i in 0..n {
+        for j in 0..n {
+            bodies.extend(seed.bodies.iter().map(|b| {
+                let mut b = b.clone();
+                b.name = format!("{}_{i}_{j}", b.name);
+                b.pose = Pose2::new(
+                    b.pose.x + w * i as f64,
+                    b.pose.y + h * j as f64,
+                    b.pose.theta,
+                );
+                b
+            }));
+        }
+    }
+    let mid = (n / 2) as f64;
+    (aisle_config::scene::Scene { bodies }, (w * mid, h * mid))
+}

@@ -262,13 +262,22 @@ fn bad_config_or_scene_is_an_error() {
     assert!(e.to_string().contains("cells_per_metre"), "{e}");
     // A user's ROS map too large for a grid message: more cells than it holds, or a
     // side longer than any grid's; a long narrow one that fits is fine.
-    let huge = GridMap::new_free(0.0, 0.0, 0.1, 150.0, 150.0).unwrap();
+    let huge = GridMap::new_free(0.0, 0.0, 0.1, 410.0, 410.0).unwrap();
     let e = Mapper::new(huge, &cfg, BeamGeometry::default()).unwrap_err();
-    assert!(matches!(e, MapError::TooMany { got: 2_250_000, .. }), "{e}");
-    let long = GridMap::new_free(0.0, 0.0, 0.1, 409.7, 2.0).unwrap();
+    assert!(
+        matches!(
+            e,
+            MapError::TooMany {
+                got: 16_810_000,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    let long = GridMap::new_free(0.0, 0.0, 0.1, 819.3, 2.0).unwrap();
     let e = Mapper::new(long, &cfg, BeamGeometry::default()).unwrap_err();
-    assert!(matches!(e, MapError::TooMany { got: 4097, .. }), "{e}");
-    let narrow = GridMap::new_free(0.0, 0.0, 0.1, 102.5, 20.0).unwrap();
+    assert!(matches!(e, MapError::TooMany { got: 8193, .. }), "{e}");
+    let narrow = GridMap::new_free(0.0, 0.0, 0.1, 500.0, 20.0).unwrap();
     assert!(Mapper::new(narrow, &cfg, BeamGeometry::default()).is_ok());
 }
 

@@ -8,8 +8,9 @@
 //!   through `read_capped`);
 //! - movable bodies: at most `aisle_simulator::MAX_MOVABLE_BODIES` (`WorldTruth` holds
 //!   `MAX_BODIES`, of which `MAX_CONTACTS` are kept for static bodies in contact);
-//! - the floor the bodies span: at most `MAX_GRID_SIDE` cells a side and `MAX_GRID_CELLS`
-//!   in all at the map's resolution (`OccupancyGrid`), or the map cannot hold them.
+//! - the floor the bodies span: at most `MAX_GLOBAL_GRID_SIDE` cells a side and
+//!   `MAX_GLOBAL_GRID_CELLS` in all at the map's resolution (`GlobalGrid`), or the map
+//!   cannot hold them.
 
 use aisle_config::scene::Scene;
 
@@ -34,20 +35,20 @@ pub fn problem(bytes: usize, scene: &Scene, cells_per_metre: f64) -> Option<Stri
         ));
     }
     let (w, h) = span(scene)?;
-    let max_side = aisle_messages::MAX_GRID_SIDE as f64 / cells_per_metre;
+    let max_side = aisle_messages::MAX_GLOBAL_GRID_SIDE as f64 / cells_per_metre;
     if w.max(h) > max_side + 1e-9 {
         return Some(format!(
             "bodies spanning {w:.1} x {h:.1} m, a side longer than the {max_side} m a map \
-             holds at {cells_per_metre} cells/m (OccupancyGrid: at most {} cells a side)",
-            aisle_messages::MAX_GRID_SIDE
+             holds at {cells_per_metre} cells/m (GlobalGrid: at most {} cells a side)",
+            aisle_messages::MAX_GLOBAL_GRID_SIDE
         ));
     }
     let cells = (w * cells_per_metre).ceil() * (h * cells_per_metre).ceil();
-    let max_cells = aisle_messages::MAX_GRID_CELLS;
+    let max_cells = aisle_messages::MAX_GLOBAL_GRID_CELLS;
     if cells > max_cells as f64 {
         return Some(format!(
             "bodies spanning {w:.1} x {h:.1} m, {cells} cells at {cells_per_metre} cells/m: \
-             more than the {max_cells} cells a map holds (OccupancyGrid)"
+             more than the {max_cells} cells a map holds (GlobalGrid)"
         ));
     }
     None
@@ -98,11 +99,25 @@ mod tests {
             e.contains("225 movable bodies") && e.contains("the 224"),
             "{e}"
         );
-        // Two static bodies 410 m apart: over 409.6 m at 10 cells/m, fine at 5.
-        let far = body("a", false, 0.0) + &body("b", false, 409.5);
+        // Two static bodies 820 m apart: over 819.2 m at 10 cells/m, fine at 5.
+        let far = body("a", false, 0.0) + &body("b", false, 819.5);
         let scene = Scene::parse(&shipped("warehouse.toml"), &far).unwrap();
         let e = problem(far.len(), &scene, 10.0).unwrap();
-        assert!(e.contains("410.0 x 0.5 m") && e.contains("409.6 m"), "{e}");
+        assert!(e.contains("820.0 x 0.5 m") && e.contains("819.2 m"), "{e}");
         assert_eq!(problem(far.len(), &scene, 5.0), None);
+        // A square hall of 410 m a side: its sides fit, its cells (2^24 at most) not.
+        let square = [(0.0, 0.0), (409.5, 0.0), (0.0, 409.5)]
+            .iter()
+            .enumerate()
+            .map(|(i, &(x, y))| {
+                body(&format!("c{i}"), false, x).replace(
+                    &format!("pose = [{x}, 0.0, 0.0]"),
+                    &format!("pose = [{x}, {y}, 0.0]"),
+                )
+            })
+            .collect::<String>();
+        let scene = Scene::parse(&shipped("warehouse.toml"), &square).unwrap();
+        let e = problem(square.len(), &scene, 10.0).unwrap();
+        assert!(e.contains("16777216 cells"), "{e}");
     }
 }
