@@ -3,9 +3,9 @@
 //! and the scaling with 10 / 100 / 1000 random boxes (seeded) in the seed's 20 x 30 m
 //! (so the density grows with the count).
 //!
-//! `size`: the storage lane in the seed and in the middle room of the seed repeated 10 x
-//! 10 times (200 x 300 m, 5,100 bodies): the same surroundings in a scene 100 times the
-//! area, level and tilted.
+//! `size`: the storage lane in the seed and in the middle room of the seed repeated 3 x 3
+//! and 10 x 10 times (200 x 300 m, 3,000 bodies): the same surroundings in a scene 9 and
+//! 100 times the area, level and tilted.
 //!
 //! `generated`: warehouses from `aisle_config::scene_gen` (the code behind `aisle scene
 //! generate`, seeded) of about 1,000 / 5,000 / 20,000 bodies, and the shipped large
@@ -163,15 +163,19 @@ fn scans(c: &mut Criterion) {
 }
 
 /// Size alone: the seed's lane, level and tilted, in the seed and in the middle room of
-/// the seed repeated 10 x 10 times (200 x 300 m, 5,100 bodies).
+/// the seed repeated 3 x 3 and 10 x 10 times.
 fn size(c: &mut Criterion) {
     let mut quiet = LidarConfig::default();
     quiet.noise.enabled = false;
     let seed = warehouse();
-    let (tiled, (dx, dy)) = cases::seed_tiled(&seed, cases::SEED_TILES);
+    let mut scenes = vec![("seed".to_string(), seed.clone(), (0.0, 0.0))];
+    for n in cases::SEED_TILES {
+        let (tiled, at) = cases::seed_tiled(&seed, n);
+        scenes.push((format!("seed x{}", n * n), tiled, at));
+    }
     let mut g = c.benchmark_group("size");
     g.throughput(Throughput::Elements(37_231));
-    for (label, scene, (x, y)) in [("seed", &seed, (0.0, 0.0)), ("seed x100", &tiled, (dx, dy))] {
+    for (label, scene, (x, y)) in &scenes {
         let mut r = Raycaster::new(&quiet, scene).expect("raycaster");
         let mut out = vec![[0.0f32; 3]; r.len()];
         let robot = Pose2::new(2.0 + x, 11.0 + y, std::f64::consts::FRAC_PI_2);

@@ -1,6 +1,6 @@
 //! CPU time per scan of the bench's cases (the seed's storage lane, the same lane in the
-//! middle room of the seed repeated 10 x 10 times, and the generated warehouses, level and
-//! tilted, one thread), the least of several runs, so that other
+//! middle room of the seed repeated 3 x 3 and 10 x 10 times, and the generated warehouses,
+//! level and tilted, one thread), the least of several runs, so that other
 //! jobs on the machine do not count: `cargo run --release -p aisle-lidar --example
 //! scan_cpu [runs] [scans] [case]` (only the cases whose label starts with `case`).
 //! Each case also prints the FNV-1a digest of its cloud's bits, so that two builds can
@@ -55,19 +55,19 @@ fn main() {
     let runs = args.first().copied().unwrap_or(5);
     let scans = args.get(1).copied().unwrap_or(500);
     let seed = Scene::load(&aisle_config::testing::shipped("warehouse.toml")).expect("seed");
-    let (tiled, (dx, dy)) = seed_tiled(&seed, SEED_TILES);
-    let mut cases = vec![
-        (
-            "seed, lane".to_string(),
-            seed,
-            Pose2::new(2.0, 11.0, FRAC_PI_2),
-        ),
-        (
-            format!("seed x{} ({})", SEED_TILES * SEED_TILES, tiled.bodies.len()),
+    let mut cases = vec![(
+        "seed, lane".to_string(),
+        seed.clone(),
+        Pose2::new(2.0, 11.0, FRAC_PI_2),
+    )];
+    for n in SEED_TILES {
+        let (tiled, (dx, dy)) = seed_tiled(&seed, n);
+        cases.push((
+            format!("seed x{} ({})", n * n, tiled.bodies.len()),
             tiled,
             Pose2::new(2.0 + dx, 11.0 + dy, FRAC_PI_2),
-        ),
-    ];
+        ));
+    }
     for (label, p) in generated() {
         let scene = generate_scene(&p);
         cases.push((

@@ -35,9 +35,10 @@ pub fn on_robot(robot: &Pose2, tilted: bool) -> SensorPose {
     SensorPose::on_robot(robot, &SensorPose::from_xyz_rpy([0.25, 0.1, 0.2], rpy))
 }
 
-/// Rooms per side of [`seed_tiled`]: 10 x 10 seed warehouses, 200 x 300 m and 5,100
-/// bodies, larger than `config/large` and as dense as the seed.
-pub const SEED_TILES: usize = 10;
+/// Rooms per side of [`seed_tiled`]: 3 x 3 seed warehouses (every room the lidar's 12 m
+/// reach from the middle one meets, 270 bodies) and 10 x 10 (200 x 300 m, 3,000 bodies,
+/// larger than `config/large` and as dense as the seed).
+pub const SEED_TILES: [usize; 2] = [3, 10];
 
 /// The seed warehouse (`seed`, a 20 x 30 m room with its walls) repeated `n x n` times
 /// side by side, and the offset of the middle room: the same scene at `n^2` times the
