@@ -276,7 +276,8 @@ fn grid<G: GridMessage>(kind: u32, k: u64) -> Box<G> {
     let view =
         aisle_geometry::GridView::new(-5.0, -10.0, 0.5, 40, 60, &cells).expect("a valid grid");
     let mut g = zeroed_box::<G>();
-    g.write(kind, k / 20, &view);
+    g.write(kind, k / 20, &view)
+        .expect("a 40 x 60 grid fits either message");
     g
 }
 

@@ -21,8 +21,9 @@ pub trait GridMessage: Message {
     fn version(&self) -> u64;
     /// Every cell the message can hold.
     fn capacity_cells(&self) -> &[u8];
-    /// Writes `map` with its `kind` and `version` (the cells beyond it untouched).
-    fn write(&mut self, kind: u32, version: u64, map: &GridView<'_>);
+    /// Writes `map` with its `kind` and `version` (the cells beyond it untouched); a map
+    /// of more cells than the message holds is an error, the message left as it was.
+    fn write(&mut self, kind: u32, version: u64, map: &GridView<'_>) -> Result<(), GridTooLarge>;
 
     /// The first `width x height` cells (fewer if the message holds fewer).
     fn cells_in_use(&self) -> &[u8] {
@@ -38,6 +39,16 @@ pub trait GridMessage: Message {
         let (w, h) = self.shape();
         GridView::new(x, y, res, w as usize, h as usize, self.cells_in_use())
     }
+}
+
+/// A map [`GridMessage::write`] cannot hold.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("a {width} x {height} map does not fit {type_name}, which holds {capacity} cells")]
+pub struct GridTooLarge {
+    pub width: usize,
+    pub height: usize,
+    pub type_name: &'static str,
+    pub capacity: usize,
 }
 
 /// The same fields in both messages, so one implementation.
@@ -59,7 +70,21 @@ macro_rules! grid_message {
             fn capacity_cells(&self) -> &[u8] {
                 &self.cells
             }
-            fn write(&mut self, kind: u32, version: u64, map: &GridView<'_>) {
+            fn write(
+                &mut self,
+                kind: u32,
+                version: u64,
+                map: &GridView<'_>,
+            ) -> Result<(), GridTooLarge> {
+                let Some(cells) = self.cells.get_mut(..map.cells.len()) else {
+                    return Err(GridTooLarge {
+                        width: map.width,
+                        height: map.height,
+                        type_name: <$t>::TYPE_NAME,
+                        capacity: self.cells.len(),
+                    });
+                };
+                cells.copy_from_slice(map.cells);
                 self.kind = kind;
                 self.width = map.width as u32;
                 self.height = map.height as u32;
@@ -67,7 +92,7 @@ macro_rules! grid_message {
                 self.origin_y = map.origin_y;
                 self.resolution = map.resolution;
                 self.version = version;
-                self.cells[..map.cells.len()].copy_from_slice(map.cells);
+                Ok(())
             }
         }
     )*};
@@ -199,7 +224,7 @@ mod tests {
         let local = grid(3, 2);
         let map = local.view().unwrap();
         let mut global = crate::zeroed_box::<GlobalGrid>();
-        global.write(0, 9, &map);
+        global.write(0, 9, &map).unwrap();
         assert_eq!((global.kind(), global.version()), (0, 9));
         let back = global.view().unwrap();
         assert_eq!((back.width, back.height, back.cells), (3, 2, map.cells));
@@ -212,7 +237,11 @@ mod tests {
         let cells = vec![1u8; (w * h) as usize];
         let wide = GridView::new(0.0, 0.0, 0.05, w as usize, h as usize, &cells).unwrap();
         assert!(wide.cells.len() > crate::MAX_GRID_CELLS);
-        global.write(0, 10, &wide);
+        global.write(0, 10, &wide).unwrap();
+        let mut local = crate::zeroed_box::<OccupancyGrid>();
+        let e = local.write(1, 3, &wide).unwrap_err();
+        assert_eq!((e.width, e.capacity), (4000, crate::MAX_GRID_CELLS));
+        assert_eq!((local.width, local.version), (0, 0), "left as it was");
         assert_eq!(global.view().unwrap().cells.len(), (w * h) as usize);
         assert_eq!(global.used_len(), 96 + (w * h) as usize);
         (global.width, global.height) = (8192, 4096);

@@ -26,7 +26,7 @@ pub use catalog::*;
 pub use catalog_maps::{CellChangeMsg, GlobalGrid, MapChanges, OccupancyGrid};
 pub use common::*;
 pub use global_map::{GlobalMapCopy, MapChangesError, MapUpdate};
-pub use grid::{GridCopy, GridMessage};
+pub use grid::{GridCopy, GridMessage, GridTooLarge};
 pub use layout::{
     FieldLayout, Message, MessageTypeVisitor, ZeroedValid, all_layouts, message_type_names,
     schema_hash, schema_hash_hex, visit_message_type, zeroed_box,

@@ -88,7 +88,11 @@ fn publish_grid<G: GridMessage>(
     version: u64,
     map: &GridView<'_>,
 ) -> Result<(), NodeError> {
-    io.publish(topic, stamp, |m| m.write(kind as u32, version, map))
+    let mut written = Ok(());
+    io.publish(topic, stamp, |m| {
+        written = m.write(kind as u32, version, map)
+    })?;
+    written.map_err(|e| NodeError::Protocol(format!("mapper: {e}")))
 }
 
 /// The mapper as a stage: one cycle per point cloud, in arrival order.
