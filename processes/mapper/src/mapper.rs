@@ -255,6 +255,8 @@ impl Mapper {
                 st
             };
         }
+        // Parts lifted since that map was published go with the next change of parts.
+        self.placed.global_replaced();
         self.version = version;
         Ok(())
     }

@@ -23,6 +23,9 @@ pub struct PlacedLayer {
     /// The cells the last [`PlacedLayer::set`] could change: under a part placed before
     /// it or by it (cell boxes, inclusive: x0, y0, x1, y1).
     regions: Vec<[usize; 4]>,
+    /// The global map came from elsewhere (a restarted mapper's published map), so it
+    /// may hold parts this layer never placed: the next change passes over every cell.
+    whole_next: bool,
 }
 
 /// The cells [`rasterize_rect`] may mark for a part: the box of its projection on the
@@ -52,7 +55,16 @@ impl PlacedLayer {
             scene,
             parts: Vec::new(),
             regions: Vec::new(),
+            whole_next: false,
         }
+    }
+
+    /// The global map was replaced by one this layer did not make (resumed from what a
+    /// mapper before a restart published): it may keep parts since lifted, which the next
+    /// [`PlacedLayer::set`] that changes the parts then clears with a pass over the whole
+    /// map, once.
+    pub fn global_replaced(&mut self) {
+        self.whole_next = true;
     }
 
     /// The parts now placed (map frame).
@@ -86,12 +98,16 @@ impl PlacedLayer {
         }
         self.regions.clear();
         let scene = &self.scene;
-        self.regions.extend(
-            self.parts
-                .iter()
-                .chain(parts)
-                .filter_map(|&p| cell_box(scene, p)),
-        );
+        if std::mem::take(&mut self.whole_next) {
+            self.regions.push([0, 0, scene.width - 1, scene.height - 1]);
+        } else {
+            self.regions.extend(
+                self.parts
+                    .iter()
+                    .chain(parts)
+                    .filter_map(|&p| cell_box(scene, p)),
+            );
+        }
         self.parts.clear();
         self.parts.extend_from_slice(parts);
         let w = scene.width;
@@ -249,6 +265,29 @@ mod tests {
             }
             assert_eq!(static_map.cells, st.cells);
         }
+    }
+
+    #[test]
+    fn parts_in_a_resumed_map_that_the_layer_never_placed_are_cleared_at_the_next_change() {
+        let scene = grid();
+        let mut layer = PlacedLayer::new(scene.clone());
+        let (mut static_map, mut global) = (scene.clone(), scene.clone());
+        // The map a mapper published before its restart: a rack's leg since lifted.
+        let stale = 30 * global.width + 30;
+        global.cells[stale] = OCCUPIED_STATIC;
+        layer.global_replaced();
+        assert!(
+            !layer.set(&[], &mut static_map, &mut global),
+            "no change yet"
+        );
+        assert_eq!(global.cells[stale], OCCUPIED_STATIC);
+        assert!(layer.set(&[leg(1.05, 1.05)], &mut static_map, &mut global));
+        assert_eq!(global.cells[stale], FREE, "cleared with the next change");
+        assert_eq!(at(&global, 1.05, 1.05), OCCUPIED_STATIC);
+        // Afterwards only the parts' cells are visited again.
+        global.cells[stale] = OCCUPIED_STATIC;
+        assert!(layer.set(&[], &mut static_map, &mut global));
+        assert_eq!(global.cells[stale], OCCUPIED_STATIC);
     }
 
     #[test]
