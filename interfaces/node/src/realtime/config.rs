@@ -37,7 +37,8 @@ pub struct OptionsFile {
     pub cpus: Option<Vec<usize>>,
     /// SCHED_FIFO priority 1..=99; 0: the normal time-sharing policy.
     pub priority: Option<u32>,
-    /// mlockall(MCL_CURRENT | MCL_FUTURE): no page of the process is ever paged out.
+    /// mlockall(MCL_CURRENT | MCL_FUTURE | MCL_ONFAULT): no page of the process is paged
+    /// out once touched.
     pub lock_memory: Option<bool>,
     /// KiB of stack touched once at startup, so the hot path never faults a stack page.
     pub prefault_stack_kb: Option<u32>,
