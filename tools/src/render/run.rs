@@ -174,12 +174,12 @@ fn kind_of(name: &str, kinds: &[(String, String)], carried: bool) -> BodyKind {
     }
 }
 
-/// Reads `file` into a [`Run`].
 /// Whether a full map's geometry can be drawn.
 fn drawable(g: &GlobalGrid) -> bool {
     g.view().is_ok() && finite(&[g.origin_x, g.origin_y, g.resolution])
 }
 
+/// Reads `file` into a [`Run`].
 pub fn collect(file: &RecordFile, opts: &RenderOptions) -> Run {
     let scene = scene_of(file);
     let kinds = scene.as_ref().map(kinds_of).unwrap_or_default();
