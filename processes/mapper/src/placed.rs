@@ -12,7 +12,7 @@
 //! every cell a part overlaps with positive area). Knows nothing of the bus or of the
 //! mission; allocates only when the set of parts changes.
 
-use crate::static_map::rasterize_rect;
+use crate::static_map::{rasterize_rect, rect_cell_box};
 use aisle_geometry::{FREE, Footprint, GridMap, OCCUPIED_DETECTED, OCCUPIED_STATIC, Pose2};
 
 /// The scene's static map and the parts placed on top of it.
@@ -28,24 +28,9 @@ pub struct PlacedLayer {
     whole_next: bool,
 }
 
-/// The cells [`rasterize_rect`] may mark for a part: the box of its projection on the
-/// grid axes, one cell wider each way, clamped to the grid; `None` for a part that is
-/// not finite, empty or off the grid.
+/// The cells [`rasterize_rect`] may mark for a part (see [`rect_cell_box`]).
 fn cell_box(grid: &GridMap, (pose, fp): (Pose2, Footprint)) -> Option<[usize; 4]> {
-    let (hx, hy) = (0.5 * fp.length, 0.5 * fp.width);
-    if !(pose.is_finite() && hx.is_finite() && hy.is_finite()) || hx <= 0.0 || hy <= 0.0 {
-        return None;
-    }
-    let (s, c) = pose.theta.sin_cos();
-    let ex = c.abs() * hx + s.abs() * hy;
-    let ey = s.abs() * hx + c.abs() * hy;
-    let r = grid.resolution;
-    let cell = |v: f64, o: f64| ((v - o) / r).floor();
-    let x0 = (cell(pose.x - ex, grid.origin_x) - 1.0).max(0.0);
-    let y0 = (cell(pose.y - ey, grid.origin_y) - 1.0).max(0.0);
-    let x1 = (cell(pose.x + ex, grid.origin_x) + 1.0).min(grid.width as f64 - 1.0);
-    let y1 = (cell(pose.y + ey, grid.origin_y) + 1.0).min(grid.height as f64 - 1.0);
-    (x0 <= x1 && y0 <= y1).then_some([x0 as usize, y0 as usize, x1 as usize, y1 as usize])
+    rect_cell_box(grid, pose, 0.5 * fp.length, 0.5 * fp.width)
 }
 
 impl PlacedLayer {
@@ -212,9 +197,13 @@ mod tests {
         assert_eq!(global.cells[i], FREE);
     }
 
-    /// What `set` must give: the scene and the parts rasterised over the whole map, and
-    /// every global cell passed through the same rule.
-    fn whole_map_pass(scene: &GridMap, parts: &[(Pose2, Footprint)], global: &mut GridMap) {
+    /// What `set` must give: the scene and the parts rasterised over the whole map (the
+    /// static map, returned), and every global cell passed through the same rule.
+    fn whole_map_pass(
+        scene: &GridMap,
+        parts: &[(Pose2, Footprint)],
+        global: &mut GridMap,
+    ) -> GridMap {
         let mut st = scene.clone();
         for (pose, fp) in parts {
             rasterize_rect(&mut st, *pose, 0.5 * fp.length, 0.5 * fp.width);
@@ -222,6 +211,7 @@ mod tests {
         for ((g, &s), &sc) in global.cells.iter_mut().zip(&st.cells).zip(&scene.cells) {
             *g = follow(*g, s, sc);
         }
+        st
     }
 
     #[test]
@@ -257,12 +247,8 @@ mod tests {
         ];
         for parts in &sets {
             layer.set(parts, &mut static_map, &mut global);
-            whole_map_pass(&scene, parts, &mut expected);
+            let st = whole_map_pass(&scene, parts, &mut expected);
             assert_eq!(global.cells, expected.cells, "{parts:?}");
-            let mut st = scene.clone();
-            for (pose, fp) in parts {
-                rasterize_rect(&mut st, *pose, 0.5 * fp.length, 0.5 * fp.width);
-            }
             assert_eq!(static_map.cells, st.cells);
         }
     }

@@ -62,36 +62,56 @@ pub fn rasterize_part(grid: &mut GridMap, pose: &Pose2, part: &BoxPart) {
     );
 }
 
-/// Marks every cell that overlaps the rectangle of half extents `hx` x `hy` centred on
-/// `at` (its x axis along `at.theta`) with positive area.
-pub fn rasterize_rect(grid: &mut GridMap, at: Pose2, hx: f64, hy: f64) {
-    if !(at.is_finite() && hx.is_finite() && hy.is_finite()) || hx <= 0.0 || hy <= 0.0 {
-        return;
-    }
+/// The cells [`rasterize_rect`] may mark for the same rectangle: the box of its
+/// projection on the grid axes, clamped to the grid (x0, y0, x1, y1, inclusive); `None`
+/// for a rectangle that is not finite, empty or off the grid.
+pub(crate) fn rect_cell_box(grid: &GridMap, at: Pose2, hx: f64, hy: f64) -> Option<[usize; 4]> {
     let (s, c) = at.theta.sin_cos();
-    let (ac, as_) = (c.abs(), s.abs());
-    // Half extents of the rectangle's projection on the grid axes.
-    let ex = ac * hx + as_ * hy;
-    let ey = as_ * hx + ac * hy;
+    let (ex, ey) = projection(c.abs(), s.abs(), hx, hy);
+    cell_box(grid, at, hx, hy, ex, ey)
+}
+
+/// Half extents on the grid axes of a rectangle of half extents `hx` x `hy` whose
+/// axis makes an angle of |cos| `ac` and |sin| `as_` with them.
+fn projection(ac: f64, as_: f64, hx: f64, hy: f64) -> (f64, f64) {
+    (ac * hx + as_ * hy, as_ * hx + ac * hy)
+}
+
+/// The clamped cells of the box of half extents `ex` x `ey` (the projection of the
+/// rectangle `hx` x `hy` at `at`) on the grid axes.
+fn cell_box(grid: &GridMap, at: Pose2, hx: f64, hy: f64, ex: f64, ey: f64) -> Option<[usize; 4]> {
+    if !(at.is_finite() && hx.is_finite() && hy.is_finite()) || hx <= 0.0 || hy <= 0.0 {
+        return None;
+    }
     let r = grid.resolution;
-    let half = 0.5 * r;
-    // Half extent of a cell's projection on the rectangle's axes.
-    let cell_on_rect = half * (ac + as_);
     let to_cell = |v: f64, o: f64| ((v - o) / r).floor();
     let ix0 = to_cell(at.x - ex, grid.origin_x).max(0.0);
     let iy0 = to_cell(at.y - ey, grid.origin_y).max(0.0);
     let ix1 = to_cell(at.x + ex, grid.origin_x).min(grid.width as f64 - 1.0);
     let iy1 = to_cell(at.y + ey, grid.origin_y).min(grid.height as f64 - 1.0);
-    if ix0 > ix1 || iy0 > iy1 {
+    (ix0 <= ix1 && iy0 <= iy1).then_some([ix0 as usize, iy0 as usize, ix1 as usize, iy1 as usize])
+}
+
+/// Marks every cell that overlaps the rectangle of half extents `hx` x `hy` centred on
+/// `at` (its x axis along `at.theta`) with positive area.
+pub fn rasterize_rect(grid: &mut GridMap, at: Pose2, hx: f64, hy: f64) {
+    let (s, c) = at.theta.sin_cos();
+    let (ac, as_) = (c.abs(), s.abs());
+    let (ex, ey) = projection(ac, as_, hx, hy);
+    let Some([ix0, iy0, ix1, iy1]) = cell_box(grid, at, hx, hy, ex, ey) else {
         return;
-    }
+    };
+    let r = grid.resolution;
+    let half = 0.5 * r;
+    // Half extent of a cell's projection on the rectangle's axes.
+    let cell_on_rect = half * (ac + as_);
     let overlap = |a0: f64, a1: f64, b0: f64, b1: f64| a1.min(b1) - a0.max(b0) > TOUCH_EPS;
-    for iy in iy0 as usize..=iy1 as usize {
+    for iy in iy0..=iy1 {
         let y0 = grid.origin_y + iy as f64 * r;
         if !overlap(y0, y0 + r, at.y - ey, at.y + ey) {
             continue;
         }
-        for ix in ix0 as usize..=ix1 as usize {
+        for ix in ix0..=ix1 {
             let x0 = grid.origin_x + ix as f64 * r;
             if !overlap(x0, x0 + r, at.x - ex, at.x + ex) {
                 continue;

@@ -152,10 +152,10 @@ fn drain_sources(
     let mut writer_gone = false;
     for (i, src) in sources {
         let i = *i;
+        let size = src.message_size();
         loop {
             let log_time = clock::monotonic_ns();
             let mut job = None;
-            let size = src.message_size();
             let got = src
                 .receive_raw(&mut |bytes| job = taker.take(i, log_time, (bytes, size), summary))?;
             if !got {
