@@ -130,7 +130,7 @@ impl Mapper {
             .set(parts, &mut self.static_map, &mut self.global);
         if changed {
             self.version += 1;
-            for span in self.placed.changed_spans() {
+            if let Some(span) = self.placed.changed_span() {
                 self.changes.note(&self.global.cells, span);
             }
         }

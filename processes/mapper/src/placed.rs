@@ -57,13 +57,15 @@ impl PlacedLayer {
         &self.parts
     }
 
-    /// The spans of row-major cell indices the last [`PlacedLayer::set`] could change
-    /// (each from a region's first cell to its last, the rows between whole).
-    pub fn changed_spans(&self) -> impl Iterator<Item = std::ops::RangeInclusive<usize>> + '_ {
+    /// The row-major cell indices the last [`PlacedLayer::set`] could change: one span
+    /// from the first cell of its regions to the last, so that the changes listed from it
+    /// come in index order, as from a pass over the whole map (a restarted mapper's
+    /// first change makes one): the list is the same bits with or without a restart.
+    pub fn changed_span(&self) -> Option<std::ops::RangeInclusive<usize>> {
         let w = self.scene.width;
-        self.regions
-            .iter()
-            .map(move |&[x0, y0, x1, y1]| y0 * w + x0..=y1 * w + x1)
+        let lo = self.regions.iter().map(|&[x0, y0, ..]| y0 * w + x0).min()?;
+        let hi = self.regions.iter().map(|&[.., x1, y1]| y1 * w + x1).max()?;
+        Some(lo..=hi)
     }
 
     /// Makes `parts` the placed set: `static_map` becomes the scene plus the parts, and
