@@ -90,11 +90,7 @@ impl Instance {
     /// Creates the root directory, readable and writable by the owner only, and checks
     /// what is there (an existing root must be a directory of this user, 0700).
     pub fn create_root(&self) -> Result<(), BusError> {
-        use std::os::unix::fs::DirBuilderExt;
-        std::fs::DirBuilder::new()
-            .recursive(true)
-            .mode(0o700)
-            .create(&self.root)
+        crate::run_dir::create_private_dir(&self.root)
             .map_err(|e| self.error(format!("cannot create {}: {e}", self.root.display())))?;
         self.check_root()
     }

@@ -96,14 +96,29 @@ pub fn prepare(dir: &Path) -> Result<(), RunDirError> {
     if let Some(parent) = dir.parent() {
         check_ancestors(parent)?;
     }
-    match std::fs::DirBuilder::new().mode(0o700).create(dir) {
-        Ok(()) => {}
-        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
-        Err(e) => return Err(io(e)),
-    }
+    create_private_dir(dir).map_err(io)?;
     // What is there now, whoever made it: never follow a link.
     let meta = std::fs::symlink_metadata(dir).map_err(io)?;
     check_dir(dir, &meta, euid(), 0o022)
+}
+
+/// Creates `dir` and any missing ancestors with mode 0700, whatever the umask is at
+/// that instant; an existing `dir` is left as it is. iceoryx2 narrows the process-wide
+/// umask to 0177 while it binds a socket (`unix_datagram_socket.rs`), so a directory
+/// another thread made meanwhile would be 0600, which even its owner cannot enter
+/// unless privileged: each directory made here gets its mode set again once it exists.
+pub fn create_private_dir(dir: &Path) -> std::io::Result<()> {
+    if let Some(parent) = dir.parent()
+        && !parent.as_os_str().is_empty()
+        && std::fs::symlink_metadata(parent).is_err()
+    {
+        create_private_dir(parent)?;
+    }
+    match std::fs::DirBuilder::new().mode(0o700).create(dir) {
+        Ok(()) => std::fs::set_permissions(dir, std::fs::Permissions::from_mode(0o700)),
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => Ok(()),
+        Err(e) => Err(e),
+    }
 }
 
 /// A directory this user may keep instances in: a real directory (not a link), owned by
