@@ -15,8 +15,9 @@
 //! (open loop: this build's controller on the recorded inputs) and prints the step
 //! times (p50, p99, max; each step's time is the least of 5 runs, so the machine's
 //! noise stays out), the subproblems, the band's poses before and after, and each
-//! step's cost against the same step with its SCP run to convergence: how a controller change moves the tail and the
-//! optimality, on the mission's own steps. Writes nothing.
+//! step's cost against that of its band with the SCP run on to convergence on the same
+//! problem: how a controller change moves the tail and how far from the local optimum
+//! its steps stop, on the mission's own steps. Writes nothing.
 
 #[path = "../benches/support/step_cases.rs"]
 mod step_cases;
@@ -187,8 +188,8 @@ fn evaluate(cfg: &TebConfig, steps: &[StepMessages]) -> Result<(), String> {
         times.push(ns);
         subproblems += out.iterations;
         let mut ratio = f64::NAN;
-        if out.iterations > 0 {
-            ratio = out.cost / converged_cost(cfg, &inputs)?;
+        if let Some((cost, converged)) = converged_cost(cfg, &inputs)? {
+            ratio = cost / converged;
             ratios.push(ratio);
         }
         let poses = out.poses.len();

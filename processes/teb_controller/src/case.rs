@@ -80,6 +80,21 @@ impl RecordedStep {
         self.teb.step(self.pose, self.velocity, self.t, &view)
     }
 
+    /// Runs the step (once per [`RecordedStep::reset`]) with a copy of its band run on
+    /// to convergence on the same problem (at most `max_subproblems` more
+    /// subproblems): the step's cost and the converged one, `None` when the step
+    /// optimised nothing.
+    pub fn converged_cost(
+        &mut self,
+        max_subproblems: usize,
+    ) -> Result<Option<(f64, f64)>, TebError> {
+        self.teb.set_convergence_audit(Some(max_subproblems));
+        let cost = self.step().map(|out| out.cost);
+        self.teb.set_convergence_audit(None);
+        let cost = cost?;
+        Ok(self.teb.converged_cost().map(|c| (cost, c)))
+    }
+
     /// Poses of the band the step starts from (0: a fresh band).
     pub fn warm_poses(&self) -> usize {
         self.snapshot.as_ref().map_or(0, |s| s.band.poses.len())

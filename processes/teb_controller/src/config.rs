@@ -131,8 +131,9 @@ pub struct SolverConfig {
     /// Stop when the predicted merit decrease falls below this.
     pub tolerance: f64,
     /// Also stop when the band meets every constraint and the next subproblem
-    /// promises less than this fraction of the merit: the next step starts from this
-    /// band anyway (real-time iteration), so polishing it is not worth a subproblem.
+    /// promises less than this fraction of the merit. The next step starts from this
+    /// band anyway (real-time iteration), but the band driven now should be near its
+    /// optimum: at 0.005 a seed run's steps end p90 0.7 % above it (at 0.05, 10 %).
     pub relative_tolerance: f64,
     /// Obstacle cells this far beyond the margin still produce constraints, m.
     pub obstacle_influence: f64,
@@ -145,13 +146,13 @@ pub struct SolverConfig {
 impl Default for SolverConfig {
     fn default() -> Self {
         Self {
-            max_iterations: 6,
+            max_iterations: 10,
             max_qp_iterations: 40,
             trust_radius: 0.6,
             min_trust_radius: 0.01,
             trust_heading: 0.6,
             tolerance: 1e-3,
-            relative_tolerance: 0.05,
+            relative_tolerance: 0.005,
             obstacle_influence: 0.6,
             check_step: 0.05,
             proximal: 1e-3,

@@ -54,6 +54,9 @@ pub struct TebController {
     /// (reused).
     crawl: Band,
     out: StepOutput,
+    /// Subproblems each optimised step's band is run on for [`TebController::converged_cost`].
+    audit: Option<usize>,
+    converged: Option<f64>,
 }
 
 fn check_map(map: &GridView) -> Result<(), String> {
@@ -109,7 +112,25 @@ impl TebController {
                 poses: Vec::with_capacity(MAX_COMMANDS),
                 ..StepOutput::default()
             },
+            audit: None,
+            converged: None,
         })
+    }
+
+    /// With `Some(n)`, every later optimised step also runs a copy of its band on to
+    /// convergence on the same problem (at most `n` more subproblems; see
+    /// [`TebController::converged_cost`]). For offline measurement only: it multiplies a
+    /// step's time; the step's output is unchanged.
+    pub fn set_convergence_audit(&mut self, max_subproblems: Option<usize>) {
+        self.audit = max_subproblems;
+    }
+
+    /// The cost the last step's band reaches when its optimisation runs on to
+    /// convergence on the same problem; `None` unless auditing (see
+    /// [`TebController::set_convergence_audit`]) or when the step optimised nothing.
+    /// The step's own `cost` over this is how far it stopped from its local optimum.
+    pub fn converged_cost(&self) -> Option<f64> {
+        self.converged
     }
 
     pub fn config(&self) -> &TebConfig {
@@ -223,6 +244,7 @@ impl TebController {
         };
         let pose = Pose2::new(pose.x, pose.y, wrap_angle(pose.theta));
         self.out.clear();
+        self.converged = None;
         self.out.t0 = t;
         let tol = active
             .goal
@@ -278,6 +300,10 @@ impl TebController {
         let mut done = self.planner.optimise(&problem, fresh);
         self.planner
             .try_other_side(&problem, &leg, &pose, &mut done);
+        self.converged = self
+            .audit
+            .filter(|_| done.iterations > 0)
+            .map(|n| self.planner.converged_merit(&problem, n));
         self.planner.finish(&problem);
 
         // Judge it (or, where it collides, the reference itself at a crawl) and write
@@ -313,17 +339,7 @@ fn judge_or_crawl(
     pose: &Pose2,
 ) -> feasibility::Verdict {
     let cfg = problem.cfg;
-    let judge = |band: &Band| {
-        feasibility::check(
-            band,
-            problem.map,
-            &problem.footprint,
-            problem.margin,
-            cfg.solver.check_step,
-            cfg.limits.min_turning_radius,
-            &problem.timing(),
-        )
-    };
+    let judge = |band: &Band| problem.judge(band);
     let verdict = judge(band);
     if verdict.flag != ExitFlag::Collision || problem.v0.abs() > cfg.straight.speed {
         return verdict;

@@ -64,20 +64,27 @@ fn first_excessive_acceleration(band: &Band, t: &Timing) -> Option<usize> {
 /// mean heading, and the heading change, spread evenly over the segment's time) held
 /// from `a`, which is a circular arc, not the chord. A 0.63 m segment turning by 1 rad
 /// bulges 8 cm off its chord: checking the chord let a band pass whose arc touched a
-/// cell.
-fn driven_pose(a: &Pose2, b: &Pose2, u: f64) -> Pose2 {
-    let turn = b.theta - a.theta;
-    let (s, c) = (0.5 * (a.theta + b.theta)).sin_cos();
-    let along = (b.x - a.x) * c + (b.y - a.y) * s;
-    let half = 0.5 * u * turn;
-    let sinc = if half.abs() < 1e-6 {
-        1.0 - half * half / 6.0
-    } else {
-        half.sin() / half
+/// cell. Where the arc ends short of `b` (its chord is the projected one shortened by
+/// the turn; a band that slips sideways leaves `b` off the arc altogether) the rest is
+/// spread along it in proportion to `u`, so the path always ends at `b`: a band may not
+/// jump through a wall by slipping, the arc alone would never cross it.
+pub(crate) fn segment_pose(a: &Pose2, b: &Pose2, u: f64) -> Pose2 {
+    let arc = |u: f64| {
+        let turn = b.theta - a.theta;
+        let (s, c) = (0.5 * (a.theta + b.theta)).sin_cos();
+        let along = (b.x - a.x) * c + (b.y - a.y) * s;
+        let half = 0.5 * u * turn;
+        let sinc = if half.abs() < 1e-6 {
+            1.0 - half * half / 6.0
+        } else {
+            half.sin() / half
+        };
+        let (hs, hc) = (a.theta + half).sin_cos();
+        let reach = u * along * sinc;
+        Pose2::new(a.x + reach * hc, a.y + reach * hs, a.theta + u * turn)
     };
-    let (hs, hc) = (a.theta + half).sin_cos();
-    let reach = u * along * sinc;
-    Pose2::new(a.x + reach * hc, a.y + reach * hs, a.theta + u * turn)
+    let (p, end) = (arc(u), arc(1.0));
+    Pose2::new(p.x + u * (b.x - end.x), p.y + u * (b.y - end.y), p.theta)
 }
 
 pub(crate) struct Verdict {
@@ -88,7 +95,8 @@ pub(crate) struct Verdict {
 }
 
 /// Checks the band. Pose 0 (the robot now) counts only for collision, since the
-/// robot cannot undo a margin it has already lost. `timing` holds the measured start
+/// robot cannot undo a margin it has already lost, and the way from it to pose 1 only
+/// for getting closer than it stands. `timing` holds the measured start
 /// velocity and the acceleration limits.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn check(
@@ -133,7 +141,7 @@ pub(crate) fn check(
             let p = if j == pieces {
                 b
             } else {
-                driven_pose(&a, &b, j as f64 / pieces as f64)
+                segment_pose(&a, &b, j as f64 / pieces as f64)
             };
             let d = min_clearance(map, footprint, &p, margin);
             v.min_clearance = v.min_clearance.min(d);
@@ -146,7 +154,15 @@ pub(crate) fn check(
                 v.last_feasible_index = k;
                 return v;
             }
-            if d < 0.9 * margin && first_margin.is_none() {
+            // The first segment leaves from where the robot stands: within the margin
+            // there, its way out may be as close as the start (no closer) until pose 1,
+            // which the optimiser places.
+            let allowed = if k == 0 && j < pieces {
+                (0.9 * margin).min(start - LEAVING_TOLERANCE)
+            } else {
+                0.9 * margin
+            };
+            if d < allowed && first_margin.is_none() {
                 first_margin = Some(k);
             }
         }
@@ -267,13 +283,13 @@ mod tests {
     }
 
     #[test]
-    fn a_segment_is_driven_along_its_arc() {
+    fn a_segment_is_driven_along_its_arc_and_ends_at_its_pose() {
         // 0.6 m turning right by 1 rad, kinematically consistent (the chord along the
         // mean heading): halfway, the arc lies left of the chord's midpoint by nearly its
-        // sagitta R (1 - cos 0.5), 7.7 cm (less the commanded speed's shortfall).
+        // sagitta R (1 - cos 0.5), 7.7 cm.
         let a = Pose2::new(0.0, 0.0, 0.0);
         let b = Pose2::new(0.6 * (-0.5f64).cos(), 0.6 * (-0.5f64).sin(), -1.0);
-        let mid = driven_pose(&a, &b, 0.5);
+        let mid = segment_pose(&a, &b, 0.5);
         assert!((mid.theta + 0.5).abs() < 1e-12);
         let (cx, cy) = (0.5 * b.x, 0.5 * b.y);
         // Left of the chord (whose direction is -0.5 rad): the normal (sin 0.5, cos 0.5).
@@ -284,13 +300,16 @@ mod tests {
             off > 0.7 * sagitta && off <= sagitta + 1e-9,
             "{off} vs {sagitta}"
         );
-        // The end: short of b by the commanded speed's shortfall only (4 % here).
-        let end = driven_pose(&a, &b, 1.0);
-        assert!(end.distance(&b) < 0.05 * 0.6, "{end:?}");
-        assert_eq!(end.theta, b.theta);
+        let end = segment_pose(&a, &b, 1.0);
+        assert!(end.distance(&b) < 1e-12 && end.theta == b.theta, "{end:?}");
         // A straight segment is its chord, forwards and backwards.
-        let back = driven_pose(&a, &Pose2::new(-0.4, 0.0, 0.0), 0.25);
+        let back = segment_pose(&a, &Pose2::new(-0.4, 0.0, 0.0), 0.25);
         assert!((back.x + 0.1).abs() < 1e-12 && back.y == 0.0);
+        // A band slipping sideways 1.35 m (its commands would only creep 6.5 cm
+        // forwards) still passes between its poses, not along the creep alone.
+        let slip = Pose2::new(0.065, 1.35, 0.0);
+        let half = segment_pose(&a, &slip, 0.5);
+        assert!((half.y - 0.675).abs() < 1e-9, "{half:?}");
     }
 
     #[test]

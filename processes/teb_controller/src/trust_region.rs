@@ -9,9 +9,6 @@ use crate::objective::Problem;
 use crate::objective::segment::{pc, tc};
 use crate::qp::{Qp, Row};
 
-/// Fraction of the trust region an interior step stays within.
-const INTERIOR: f64 = 0.5;
-
 /// Half-widths of the region at one scale.
 pub(crate) struct TrustRegion {
     pub scale: f64,
@@ -73,14 +70,5 @@ impl TrustRegion {
             r.add(Some(tc(m, k)), -1.0);
             qp.leq(&r, t - lo);
         }
-    }
-
-    /// Whether the step `x` kept every pose well inside the region.
-    pub fn is_interior(&self, x: &[f64], band: &Band, solver: &SolverConfig) -> bool {
-        let radius = INTERIOR * self.scale * solver.trust_radius;
-        let heading = INTERIOR * self.scale * solver.trust_heading;
-        (0..band.poses.len() - 1).all(|i| {
-            x[3 * i].abs() < radius && x[3 * i + 1].abs() < radius && x[3 * i + 2].abs() < heading
-        })
     }
 }

@@ -89,16 +89,19 @@ fn goal_id(m: &FileMessage) -> u64 {
     u64_at(m, AT)
 }
 
-/// The cost of the step of `inputs` with its SCP run to convergence (60 subproblems at
-/// most, stopping only when a subproblem promises under 1e-7 of the merit).
+/// Subproblems a step's band is run on for [`converged_cost`]: far more than any step
+/// needs to converge.
+pub const CONVERGE_SUBPROBLEMS: usize = 60;
+
+/// The step of `inputs`: its cost and that of its band with the SCP run on to
+/// convergence on the same problem (until a subproblem promises under 1e-7 of the
+/// merit), `None` when the step optimised nothing. The first over the second is how far
+/// the step stopped from the local optimum it was heading for.
 #[allow(dead_code)] // the bench and the example use it; the test that includes this does not
-pub fn converged_cost(cfg: &TebConfig, inputs: &StepInputs) -> Result<f64, String> {
-    let mut c = cfg.clone();
-    c.solver.max_iterations = 60;
-    c.solver.tolerance = 1e-9;
-    c.solver.relative_tolerance = 1e-7;
-    let mut step = RecordedStep::new(c, inputs)?;
-    Ok(step.step().map_err(|e| e.to_string())?.cost)
+pub fn converged_cost(cfg: &TebConfig, inputs: &StepInputs) -> Result<Option<(f64, f64)>, String> {
+    let mut step = RecordedStep::new(cfg.clone(), inputs)?;
+    step.converged_cost(CONVERGE_SUBPROBLEMS)
+        .map_err(|e| e.to_string())
 }
 
 /// Newest message of `list` stamped at or before `t` (`strict`: before).

@@ -1,8 +1,12 @@
 //! Obstacle clearance, penalised (L1) at `w_constraint`: margin - clearance of the
 //! footprint at every pose but the robot's and at points between poses (a stretched
-//! segment would otherwise cut a corner unchecked). The model takes the nearest cell in
-//! each sector of every sample, linear in the pose step, one slack per sample (the
-//! merit charges a sample's worst cell).
+//! segment would otherwise cut a corner unchecked). Points between poses lie on the arc
+//! the robot drives (`feasibility::segment_pose`), which the exit flag checks, not on
+//! the chord: a converged band meets the margin exactly at its samples, and a turning
+//! segment's arc bulges centimetres off its chord. The model takes the nearest cell in
+//! each sector of every sample, linear in the pose step (a sample moving with its two
+//! poses in proportion to where it lies between them), one slack per sample (the merit
+//! charges a sample's worst cell).
 
 use aisle_geometry::Pose2;
 
@@ -10,20 +14,12 @@ use super::segment::{pc, slack_non_negative};
 use super::{Problem, Tally};
 use crate::band::{Band, chord};
 use crate::clearance::{CellHit, min_clearance, nearest_per_sector};
+use crate::feasibility::segment_pose;
 use crate::qp::{Qp, Row};
 use crate::trust_region::TrustRegion;
 
 const SAMPLE_SPACING: f64 = 0.3;
 const MAX_INTERIOR_SAMPLES: usize = 6;
-
-/// Pose a fraction `u` of the way from `a` to `b`.
-fn lerp(a: &Pose2, b: &Pose2, u: f64) -> Pose2 {
-    Pose2::new(
-        a.x + u * (b.x - a.x),
-        a.y + u * (b.y - a.y),
-        a.theta + u * (b.theta - a.theta),
-    )
-}
 
 /// Clearance samples strictly between two poses: one per started `SAMPLE_SPACING`,
 /// at least one (the midpoint), at most `MAX_INTERIOR_SAMPLES`.
@@ -45,7 +41,7 @@ pub(super) fn merit(p: &Problem, band: &Band, t: &mut Tally) {
             let q = if j == 0 {
                 b
             } else {
-                lerp(&a, &b, j as f64 / (n + 1) as f64)
+                segment_pose(&a, &b, j as f64 / (n + 1) as f64)
             };
             let g = (p.margin - min_clearance(p.map, &p.footprint, &q, p.margin)).max(0.0);
             t.sum += g;
@@ -72,7 +68,7 @@ pub(super) fn linearise(
                 (b, 0.0)
             } else {
                 let u = sample as f64 / (n + 1) as f64;
-                (lerp(&a, &b, u), 1.0 - u)
+                (segment_pose(&a, &b, u), 1.0 - u)
             };
             nearest_per_sector(p.map, &p.footprint, &pose, reach, hits);
             // A cell the trust region cannot bring inside the margin gives a row

@@ -41,6 +41,7 @@ use crate::timing::Timing;
 use crate::trust_region::TrustRegion;
 
 /// Everything fixed during one step's optimisation.
+#[derive(Clone, Copy)]
 pub(crate) struct Problem<'a> {
     pub cfg: &'a TebConfig,
     pub map: &'a GridView<'a>,
@@ -77,6 +78,20 @@ impl Problem<'_> {
     /// Speed limit in the section's direction, m/s.
     pub fn v_limit(&self) -> f64 {
         self.cfg.limits.speed_limit(self.direction)
+    }
+
+    /// The exit flag's verdict on `band` under this problem's map, footprint, margin
+    /// and limits.
+    pub fn judge(&self, band: &Band) -> crate::feasibility::Verdict {
+        crate::feasibility::check(
+            band,
+            self.map,
+            &self.footprint,
+            self.margin,
+            self.cfg.solver.check_step,
+            self.cfg.limits.min_turning_radius,
+            &self.timing(),
+        )
     }
 }
 
