@@ -22,7 +22,8 @@ const LEAVING_TOLERANCE: f64 = 1e-3;
 
 /// First segment whose velocity change (from the measured velocity, from the previous
 /// segment, or to rest at the end) exceeds `ACCELERATION_TOLERANCE` x its limit,
-/// measured as the optimiser measures it: over the mean duration of the two segments.
+/// measured as the optimiser measures it: over the mean duration of the two segments
+/// (from the measured velocity, `Timing::start_span`).
 fn first_excessive_acceleration(band: &Band, t: &Timing) -> Option<usize> {
     let m = band.dts.len();
     if m == 0 || band.poses.len() != m + 1 {
@@ -42,7 +43,7 @@ fn first_excessive_acceleration(band: &Band, t: &Timing) -> Option<usize> {
             || dw.abs() > ACCELERATION_TOLERANCE * t.max_angular_acceleration * span
     };
     let (v, w) = motion(0);
-    if over(v - t.v0, w - t.w0, band.dts[0]) {
+    if over(v - t.v0, w - t.w0, t.start_span(band.dts[0])) {
         return Some(0);
     }
     for k in 0..m - 1 {
@@ -222,6 +223,7 @@ mod tests {
             at_rest: false,
             max_acceleration: 2.4,
             max_angular_acceleration: 4.8,
+            max_start_span: f64::INFINITY,
         };
         let verdict = check(&band, &map.view(), &fp, 0.1, 0.05, 0.0, &timing);
         assert_eq!(verdict.flag, ExitFlag::AccelerationExceeded);
@@ -264,6 +266,7 @@ mod tests {
             at_rest: true,
             max_acceleration: 2.4,
             max_angular_acceleration: 4.8,
+            max_start_span: f64::INFINITY,
         };
         let judge = |band: &Band| check(band, &map.view(), &fp, 0.1, 0.02, 0.0, &timing);
         // Backing away: driven (inside the margin for its first poses), not a collision.
@@ -280,6 +283,29 @@ mod tests {
         // Clear of the disc at the start: a band reaching into it is a collision.
         let into = judge(&straight(-0.2, 0.08));
         assert_eq!(into.flag, ExitFlag::Collision);
+    }
+
+    #[test]
+    fn a_long_first_segment_from_rest_is_judged_over_the_reference_step() {
+        let map = GridMap::new_free(-2.0, -2.0, 0.1, 6.0, 4.0).unwrap();
+        let band = Band {
+            poses: vec![Pose2::new(0.0, 0.0, 0.0), Pose2::new(1.88, 0.0, 0.0)],
+            dts: vec![0.94],
+        };
+        let mut timing = Timing {
+            v0: 0.0,
+            w0: 0.0,
+            at_rest: false,
+            max_acceleration: 2.4,
+            max_angular_acceleration: 4.8,
+            max_start_span: f64::INFINITY,
+        };
+        let fp = Footprint::new(0.5, 0.4);
+        let judge = |t: &Timing| check(&band, &map.view(), &fp, 0.1, 0.05, 0.0, t).flag;
+        assert_eq!(judge(&timing), ExitFlag::Valid);
+        // 2 m/s commanded at once from rest.
+        timing.max_start_span = 0.3;
+        assert_eq!(judge(&timing), ExitFlag::AccelerationExceeded);
     }
 
     #[test]
@@ -329,6 +355,7 @@ mod tests {
             at_rest: false,
             max_acceleration: 10.0,
             max_angular_acceleration: 10.0,
+            max_start_span: f64::INFINITY,
         };
         let chord = |u: f64| {
             Pose2::new(

@@ -21,6 +21,17 @@ pub(crate) struct Timing {
     pub at_rest: bool,
     pub max_acceleration: f64,
     pub max_angular_acceleration: f64,
+    /// The longest span over which the first segment's velocity may be reached from
+    /// the measured one (the band's reference time step): its command applies at once,
+    /// so a long first segment does not earn a larger change.
+    pub max_start_span: f64,
+}
+
+impl Timing {
+    /// The span over which the first segment (of duration `dt0`) reaches its velocity.
+    pub fn start_span(&self, dt0: f64) -> f64 {
+        dt0.min(self.max_start_span)
+    }
 }
 
 /// Lengthens every time step too short for its segment under the velocity limits
@@ -67,14 +78,21 @@ fn max_rate_pair(q: f64, u: f64, other_t: f64, limit: f64) -> Option<f64> {
 }
 
 /// Largest rate at which a segment moving `q` per unit rate starts from the velocity
-/// `u` within `limit` x T (its own duration is the span).
-fn max_rate_start(q: f64, u: f64, limit: f64) -> Option<f64> {
+/// `u` within `limit` x its span, which is its own duration T up to `max_span`.
+fn max_rate_start(q: f64, u: f64, limit: f64, max_span: f64) -> Option<f64> {
     let qa = q.abs();
     if qa < 1e-12 {
         return None;
     }
     let b = if q * u >= 0.0 { u.abs() } else { -u.abs() };
-    Some((b + (b * b + 4.0 * limit * qa).sqrt()) / (2.0 * qa))
+    // With the span T: |q| s - b <= limit / s.
+    let s = (b + (b * b + 4.0 * limit * qa).sqrt()) / (2.0 * qa);
+    if 1.0 / s <= max_span {
+        return Some(s);
+    }
+    // Longer than `max_span`: |q| s - b <= limit x max_span.
+    let reach = b + limit * max_span;
+    (reach > 0.0).then_some(reach / qa)
 }
 
 /// Lengthens time steps until every acceleration is within its limit (up to rounding)
@@ -107,7 +125,7 @@ pub(crate) fn retime(band: &mut Band, t: &Timing) -> bool {
             let u0 = q0 / band.dts[0];
             // Only a segment faster than the start velocity can be helped by slowing.
             if u0.abs() > start.abs() || u0 * start < 0.0 {
-                cap(band, 0, max_rate_start(q0, start, limit));
+                cap(band, 0, max_rate_start(q0, start, limit, t.max_start_span));
             }
         }
         for k in 0..m.saturating_sub(1) {
@@ -162,8 +180,8 @@ mod tests {
         let mut worst: f64 = 0.0;
         let (v, w) = vel(0);
         worst = worst
-            .max((v - t.v0).abs() - t.max_acceleration * band.dts[0])
-            .max((w - t.w0).abs() - t.max_angular_acceleration * band.dts[0]);
+            .max((v - t.v0).abs() - t.max_acceleration * t.start_span(band.dts[0]))
+            .max((w - t.w0).abs() - t.max_angular_acceleration * t.start_span(band.dts[0]));
         for k in 0..m - 1 {
             let (va, wa) = vel(k);
             let (vb, wb) = vel(k + 1);
@@ -201,6 +219,7 @@ mod tests {
             at_rest: true,
             max_acceleration: 2.4,
             max_angular_acceleration: 4.8,
+            max_start_span: f64::INFINITY,
         };
         assert!(worst_excess(&band, &t) > 0.5);
         let before = band.clone();
@@ -218,5 +237,30 @@ mod tests {
         let again = band.clone();
         assert!(!retime(&mut band, &t));
         assert_eq!(band, again);
+    }
+
+    #[test]
+    fn a_long_first_segment_from_rest_earns_no_larger_start() {
+        // 1.88 m in 0.94 s from rest: 2 m/s at once. Over its own duration that is within
+        // 2.4 m/s^2; over the reference step it is not, and slowing it means 0.72 m/s.
+        let mut band = Band::default();
+        band.poses.push(Pose2::new(0.0, 0.0, 0.0));
+        band.poses.push(Pose2::new(1.88, 0.0, 0.0));
+        band.dts.push(0.94);
+        let mut t = Timing {
+            v0: 0.0,
+            w0: 0.0,
+            at_rest: false,
+            max_acceleration: 2.4,
+            max_angular_acceleration: 4.8,
+            max_start_span: f64::INFINITY,
+        };
+        assert!(!retime(&mut band, &t));
+        t.max_start_span = 0.3;
+        assert!(worst_excess(&band, &t) > 1.0);
+        assert!(retime(&mut band, &t));
+        assert!(worst_excess(&band, &t) < 1e-9);
+        let v = 1.88 / band.dts[0];
+        assert!((v - 0.72).abs() < 1e-9, "{v}");
     }
 }

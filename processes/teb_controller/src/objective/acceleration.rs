@@ -1,5 +1,6 @@
 //! Accelerations, penalised (L1) at `w_constraint`: from the measured velocity over the
-//! first segment, between consecutive segments over the mean of their time steps, and
+//! first segment (at most the reference time step: its command applies at once, so a
+//! long first segment earns no larger change), between consecutive segments over the mean of their time steps, and
 //! to rest over the last segment when the band ends at the goal; each
 //! |velocity change| - limit x span, linear and angular. The model linearises
 //! v = (dp . h) / T and w = dtheta / T (curved in T; see `timing.rs` for the repair).
@@ -24,8 +25,9 @@ pub(super) fn merit(p: &Problem, band: &Band, t: &mut Tally) {
     if m == 0 {
         return;
     }
-    charge(segment_velocity(band, 0) - p.v0, band.dts[0], amax, t);
-    charge(segment_rate(band, 0) - p.w0, band.dts[0], alpha, t);
+    let span0 = p.timing().start_span(band.dts[0]);
+    charge(segment_velocity(band, 0) - p.v0, span0, amax, t);
+    charge(segment_rate(band, 0) - p.w0, span0, alpha, t);
     for k in 0..m.saturating_sub(1) {
         let span = 0.5 * (band.dts[k] + band.dts[k + 1]);
         charge(
@@ -68,12 +70,17 @@ pub(super) fn linearise(qp: &mut Qp, p: &Problem, band: &Band) {
     let m = band.poses.len() - 1;
     let tc = |k: usize| tc(m, k);
     let (amax, alpha) = (lim.max_acceleration, lim.max_angular_acceleration);
-    let mut span0 = Row::new();
-    span0.add(Some(tc(0)), 1.0);
+    // The span from the measured velocity is the first time step up to its cap, and
+    // fixed once capped.
+    let span0 = p.timing().start_span(band.dts[0]);
+    let mut span0_row = Row::new();
+    if span0 == band.dts[0] {
+        span0_row.add(Some(tc(0)), 1.0);
+    }
     let (v, rv) = lin_v(band, 0, tc(0));
-    soft_abs(qp, wc, v - p.v0, &rv, band.dts[0], &span0, amax);
+    soft_abs(qp, wc, v - p.v0, &rv, span0, &span0_row, amax);
     let (wv, rw) = lin_w(band, 0, tc(0));
-    soft_abs(qp, wc, wv - p.w0, &rw, band.dts[0], &span0, alpha);
+    soft_abs(qp, wc, wv - p.w0, &rw, span0, &span0_row, alpha);
     for k in 0..m.saturating_sub(1) {
         let mut span = Row::new();
         span.add(Some(tc(k)), 0.5).add(Some(tc(k + 1)), 0.5);

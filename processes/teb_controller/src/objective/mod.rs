@@ -72,6 +72,7 @@ impl Problem<'_> {
             at_rest: self.at_rest,
             max_acceleration: self.cfg.limits.max_acceleration,
             max_angular_acceleration: self.cfg.limits.max_angular_acceleration,
+            max_start_span: self.cfg.band.dt_ref,
         }
     }
 
