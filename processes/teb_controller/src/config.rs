@@ -138,6 +138,11 @@ pub struct SolverConfig {
     pub relative_tolerance: f64,
     /// Obstacle cells this far beyond the margin still produce constraints, m.
     pub obstacle_influence: f64,
+    /// Clearance the optimiser keeps beyond the margin, m: a converged band meets its
+    /// constraints exactly, and the robot tracks it only to a few centimetres (at speed
+    /// and the turn-rate limit), which took it inside what the planner counts as a
+    /// collision (a start it could not plan from). The exit flag judges the margin itself.
+    pub clearance_allowance: f64,
     /// Position step between footprint checks along the band for the exit flag, m.
     pub check_step: f64,
     /// Proximal weight keeping each subproblem strictly convex.
@@ -155,6 +160,7 @@ impl Default for SolverConfig {
             tolerance: 1e-3,
             relative_tolerance: 0.005,
             obstacle_influence: 0.6,
+            clearance_allowance: 0.02,
             check_step: 0.05,
             proximal: 1e-3,
         }
@@ -338,6 +344,7 @@ impl Validate for TebConfig {
             return Err(bad("solver.relative_tolerance", "must lie in [0, 1)"));
         }
         non_negative("solver.obstacle_influence", s.obstacle_influence)?;
+        non_negative("solver.clearance_allowance", s.clearance_allowance)?;
         positive("solver.check_step", s.check_step)?;
         positive("solver.proximal", s.proximal)?;
         let h = &self.homotopy;

@@ -1,4 +1,5 @@
-//! Obstacle clearance, penalised (L1) at `w_constraint`: margin - clearance of the
+//! Obstacle clearance, penalised (L1) at `w_constraint`: margin (plus
+//! `solver.clearance_allowance`, what the robot's tracking may lose) - clearance of the
 //! footprint at every pose but the robot's and at points between poses (a stretched
 //! segment would otherwise cut a corner unchecked). Points between poses lie on the arc
 //! the robot drives (`feasibility::segment_pose`), which the exit flag checks, not on
@@ -20,6 +21,11 @@ use crate::trust_region::TrustRegion;
 
 const SAMPLE_SPACING: f64 = 0.3;
 const MAX_INTERIOR_SAMPLES: usize = 6;
+
+/// The clearance the optimiser keeps: the margin and the tracking allowance.
+fn kept(p: &Problem) -> f64 {
+    p.margin + p.cfg.solver.clearance_allowance
+}
 
 /// Clearance samples strictly between two poses: one per started `SAMPLE_SPACING`,
 /// at least one (the midpoint), at most `MAX_INTERIOR_SAMPLES`.
@@ -43,7 +49,8 @@ pub(super) fn merit(p: &Problem, band: &Band, t: &mut Tally) {
             } else {
                 segment_pose(&a, &b, j as f64 / (n + 1) as f64)
             };
-            let g = (p.margin - min_clearance(p.map, &p.footprint, &q, p.margin)).max(0.0);
+            let m = kept(p);
+            let g = (m - min_clearance(p.map, &p.footprint, &q, m)).max(0.0);
             t.sum += g;
             t.worst.clearance = t.worst.clearance.max(g);
         }
@@ -59,7 +66,8 @@ pub(super) fn linearise(
     region: &TrustRegion,
     hits: &mut [Option<CellHit>; 4],
 ) {
-    let reach = p.margin + p.cfg.solver.obstacle_influence + region.radius;
+    let margin = kept(p);
+    let reach = margin + p.cfg.solver.obstacle_influence + region.radius;
     for i in 1..band.poses.len() {
         let (a, b) = (band.poses[i - 1], band.poses[i]);
         let n = interior_samples(&a, &b);
@@ -77,7 +85,7 @@ pub(super) fn linearise(
                 if let Some(hit) = h {
                     let change = (hit.grad[0].abs() + hit.grad[1].abs()) * region.radius
                         + hit.grad[2].abs() * region.heading;
-                    if hit.clearance - change > p.margin {
+                    if hit.clearance - change > margin {
                         *h = None;
                     }
                 }
@@ -94,7 +102,7 @@ pub(super) fn linearise(
                     r.add(pc(i - 1, c), -weight_prev * hit.grad[c]);
                 }
                 r.add(Some(s), -1.0);
-                qp.leq(&r, hit.clearance - p.margin);
+                qp.leq(&r, hit.clearance - margin);
             }
             slack_non_negative(qp, s);
         }
