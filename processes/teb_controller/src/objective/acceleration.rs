@@ -1,9 +1,10 @@
 //! Accelerations, penalised (L1) at `w_constraint`: from the measured velocity over the
 //! first segment (at most the reference time step: its command applies at once, so a
-//! long first segment earns no larger change), between consecutive segments over the mean of their time steps, and
-//! to rest over the last segment when the band ends at the goal; each
-//! |velocity change| - limit x span, linear and angular. The model linearises
-//! v = (dp . h) / T and w = dtheta / T (curved in T; see `timing.rs` for the repair).
+//! long first segment earns no larger change), between consecutive segments over the
+//! mean of their time steps, and to rest over the last segment when the band ends at
+//! the goal; each |velocity change| - limit x span, linear and angular. The model
+//! linearises v = (dp . h) / T and w = dtheta / T (curved in T; see `timing.rs` for the
+//! repair).
 
 use super::segment::{lin_v, lin_w, segment_rate, segment_velocity, slack_non_negative, tc};
 use super::{Problem, Tally};

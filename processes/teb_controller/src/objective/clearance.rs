@@ -40,6 +40,7 @@ fn interior_samples(a: &Pose2, b: &Pose2) -> usize {
 
 /// Exact value: every sample's shortfall below the margin.
 pub(super) fn merit(p: &Problem, band: &Band, t: &mut Tally) {
+    let margin = kept(p);
     for i in 1..band.poses.len() {
         let (a, b) = (band.poses[i - 1], band.poses[i]);
         let n = interior_samples(&a, &b);
@@ -49,8 +50,7 @@ pub(super) fn merit(p: &Problem, band: &Band, t: &mut Tally) {
             } else {
                 segment_pose(&a, &b, j as f64 / (n + 1) as f64)
             };
-            let m = kept(p);
-            let g = (m - min_clearance(p.map, &p.footprint, &q, m)).max(0.0);
+            let g = (margin - min_clearance(p.map, &p.footprint, &q, margin)).max(0.0);
             t.sum += g;
             t.worst.clearance = t.worst.clearance.max(g);
         }
