@@ -60,7 +60,7 @@ fn first_excessive_acceleration(band: &Band, t: &Timing) -> Option<usize> {
     None
 }
 
-/// The pose at fraction `u` of the segment from `a` to `b` as the robot drives it: the
+/// The path of the segment from `a` to `b` as the robot drives it: the
 /// segment's commands (`segment_velocity`, `segment_rate`: the chord projected on the
 /// mean heading, and the heading change, spread evenly over the segment's time) held
 /// from `a`, which is a circular arc, not the chord. A 0.63 m segment turning by 1 rad
@@ -69,23 +69,57 @@ fn first_excessive_acceleration(band: &Band, t: &Timing) -> Option<usize> {
 /// the turn; a band that slips sideways leaves `b` off the arc altogether) the rest is
 /// spread along it in proportion to `u`, so the path always ends at `b`: a band may not
 /// jump through a wall by slipping, the arc alone would never cross it.
-pub(crate) fn segment_pose(a: &Pose2, b: &Pose2, u: f64) -> Pose2 {
-    let arc = |u: f64| {
-        let turn = b.theta - a.theta;
+pub(crate) struct SegmentPath {
+    a: Pose2,
+    turn: f64,
+    /// The chord projected on the mean heading: the arc's length.
+    along: f64,
+    /// From where the arc ends to `b`, spread along it in proportion to `u`.
+    end_gap: [f64; 2],
+}
+
+impl SegmentPath {
+    pub(crate) fn new(a: &Pose2, b: &Pose2) -> SegmentPath {
         let (s, c) = (0.5 * (a.theta + b.theta)).sin_cos();
-        let along = (b.x - a.x) * c + (b.y - a.y) * s;
-        let half = 0.5 * u * turn;
+        let mut path = SegmentPath {
+            a: *a,
+            turn: b.theta - a.theta,
+            along: (b.x - a.x) * c + (b.y - a.y) * s,
+            end_gap: [0.0; 2],
+        };
+        let end = path.arc(1.0);
+        path.end_gap = [b.x - end.x, b.y - end.y];
+        path
+    }
+
+    fn arc(&self, u: f64) -> Pose2 {
+        let a = &self.a;
+        let half = 0.5 * u * self.turn;
         let sinc = if half.abs() < 1e-6 {
             1.0 - half * half / 6.0
         } else {
             half.sin() / half
         };
         let (hs, hc) = (a.theta + half).sin_cos();
-        let reach = u * along * sinc;
-        Pose2::new(a.x + reach * hc, a.y + reach * hs, a.theta + u * turn)
-    };
-    let (p, end) = (arc(u), arc(1.0));
-    Pose2::new(p.x + u * (b.x - end.x), p.y + u * (b.y - end.y), p.theta)
+        let reach = u * self.along * sinc;
+        Pose2::new(a.x + reach * hc, a.y + reach * hs, a.theta + u * self.turn)
+    }
+
+    /// The pose at fraction `u` (0 at `a`, 1 at `b`).
+    pub(crate) fn at(&self, u: f64) -> Pose2 {
+        let p = self.arc(u);
+        Pose2::new(
+            p.x + u * self.end_gap[0],
+            p.y + u * self.end_gap[1],
+            p.theta,
+        )
+    }
+}
+
+/// [`SegmentPath::at`] of the segment from `a` to `b`, for a single pose.
+#[cfg(test)]
+fn segment_pose(a: &Pose2, b: &Pose2, u: f64) -> Pose2 {
+    SegmentPath::new(a, b).at(u)
 }
 
 pub(crate) struct Verdict {
@@ -134,6 +168,7 @@ pub(crate) fn check(
     for k in 0..n - 1 {
         let a = band.poses[k];
         let b = band.poses[k + 1];
+        let path = SegmentPath::new(&a, &b);
         let pieces = ((a.distance(&b) / step)
             .max((b.theta - a.theta).abs() / step)
             .ceil() as usize)
@@ -142,7 +177,7 @@ pub(crate) fn check(
             let p = if j == pieces {
                 b
             } else {
-                segment_pose(&a, &b, j as f64 / pieces as f64)
+                path.at(j as f64 / pieces as f64)
             };
             let d = min_clearance(map, footprint, &p, margin);
             v.min_clearance = v.min_clearance.min(d);

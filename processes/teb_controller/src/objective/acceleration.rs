@@ -73,9 +73,10 @@ pub(super) fn linearise(qp: &mut Qp, p: &Problem, band: &Band) {
     let (amax, alpha) = (lim.max_acceleration, lim.max_angular_acceleration);
     // The span from the measured velocity is the first time step up to its cap, and
     // fixed once capped.
-    let span0 = p.timing().start_span(band.dts[0]);
+    let timing = p.timing();
+    let span0 = timing.start_span(band.dts[0]);
     let mut span0_row = Row::new();
-    if span0 == band.dts[0] {
+    if band.dts[0] <= timing.max_start_span {
         span0_row.add(Some(tc(0)), 1.0);
     }
     let (v, rv) = lin_v(band, 0, tc(0));

@@ -2,7 +2,7 @@
 //! `solver.clearance_allowance`, what the robot's tracking may lose) - clearance of the
 //! footprint at every pose but the robot's and at points between poses (a stretched
 //! segment would otherwise cut a corner unchecked). Points between poses lie on the arc
-//! the robot drives (`feasibility::segment_pose`), which the exit flag checks, not on
+//! the robot drives (`feasibility::SegmentPath`), which the exit flag checks, not on
 //! the chord: a converged band meets the margin exactly at its samples, and a turning
 //! segment's arc bulges centimetres off its chord. The model takes the nearest cell in
 //! each sector of every sample, linear in the pose step (a sample moving with its two
@@ -15,7 +15,7 @@ use super::segment::{pc, slack_non_negative};
 use super::{Problem, Tally};
 use crate::band::{Band, chord};
 use crate::clearance::{CellHit, min_clearance, nearest_per_sector};
-use crate::feasibility::segment_pose;
+use crate::feasibility::SegmentPath;
 use crate::qp::{Qp, Row};
 use crate::trust_region::TrustRegion;
 
@@ -44,11 +44,12 @@ pub(super) fn merit(p: &Problem, band: &Band, t: &mut Tally) {
     for i in 1..band.poses.len() {
         let (a, b) = (band.poses[i - 1], band.poses[i]);
         let n = interior_samples(&a, &b);
+        let path = SegmentPath::new(&a, &b);
         for j in 0..=n {
             let q = if j == 0 {
                 b
             } else {
-                segment_pose(&a, &b, j as f64 / (n + 1) as f64)
+                path.at(j as f64 / (n + 1) as f64)
             };
             let g = (margin - min_clearance(p.map, &p.footprint, &q, margin)).max(0.0);
             t.sum += g;
@@ -71,12 +72,13 @@ pub(super) fn linearise(
     for i in 1..band.poses.len() {
         let (a, b) = (band.poses[i - 1], band.poses[i]);
         let n = interior_samples(&a, &b);
+        let path = SegmentPath::new(&a, &b);
         for sample in 0..=n {
             let (pose, weight_prev) = if sample == 0 {
                 (b, 0.0)
             } else {
                 let u = sample as f64 / (n + 1) as f64;
-                (segment_pose(&a, &b, u), 1.0 - u)
+                (path.at(u), 1.0 - u)
             };
             nearest_per_sector(p.map, &p.footprint, &pose, reach, hits);
             // A cell the trust region cannot bring inside the margin gives a row
