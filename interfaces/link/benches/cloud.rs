@@ -2,20 +2,24 @@
 //! two Zenoh sessions on the loopback interface, `aisle_link::testing`); a message
 //! published on `a` is timed until `b`'s subscriber is woken with it, one in flight:
 //! - `point_cloud_a_to_b`: the lidar's `PointCloud` with the seed pattern's 31 x 1201
-//!   points filled (447 KB of points; the message is its fixed 1.57 MB capacity, all of
-//!   which the link carries), so criterion's throughput is the link's for back-to-back
-//!   clouds;
+//!   points filled (447 KB of points in a message of 1.57 MB capacity; the link
+//!   carries the points, `aisle_link::trimmed`), so criterion's throughput is the
+//!   link's for back-to-back clouds;
+//! - `global_map_a_to_b`: the seed's 200 x 300-cell global map in a `GlobalGrid` of
+//!   16 MiB capacity;
 //! - `robot_state_a_to_b`: the 128-byte `RobotState`, the link's latency alone.
 //!
 //! After criterion's own figures each case prints its per-sample distribution (every
 //! timed sample, warm-up included; nearest rank as `aisle_tools::latency`): p50, p99,
-//! max, messages per second and bytes per second.
+//! max, messages per second and bytes per second (of the bytes the message uses).
 
 use aisle_bus::{Stamp, Topic, WaitOutcome};
+use aisle_geometry::GridView;
 use aisle_link::testing::LoopbackPair;
-use aisle_messages::{Message, PointCloud, RobotState, topics};
+use aisle_messages::{GlobalGrid, GridMessage, Message, PointCloud, RobotState, topics};
 use aisle_tools::latency::nearest_rank;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use std::sync::LazyLock;
 use std::time::{Duration, Instant};
 
 /// The seed lidar pattern (`config/lidar.toml`): rows x columns.
@@ -30,6 +34,16 @@ fn fill_cloud(m: &mut PointCloud, k: u64) {
         let a = i as f32 * 1e-3 + k as f32;
         *p = [a, -a, 0.5];
     }
+}
+
+/// The seed's global map (`config/mapper.toml`): 20 x 30 m at 10 cells/m.
+fn fill_map(m: &mut GlobalGrid, k: u64) {
+    const W: usize = 200;
+    const H: usize = 300;
+    static CELLS: LazyLock<Vec<u8>> =
+        LazyLock::new(|| (0..W * H).map(|i| (i % 101) as u8).collect());
+    let map = GridView::new(-5.0, -10.0, 0.1, W, H, &CELLS).expect("a valid map");
+    m.write(0, k, &map).expect("the seed's map fits");
 }
 
 fn fill_state(m: &mut RobotState, k: u64) {
@@ -65,7 +79,11 @@ fn across<M: Message>(c: &mut Criterion, name: &str, topic: Topic<M>, fill: fn(&
         assert_eq!(outcome, WaitOutcome::Matched, "{name} {seq} did not cross");
         start.elapsed()
     };
-    let size = std::mem::size_of::<M>();
+    let size = {
+        let mut m = aisle_messages::zeroed_box::<M>();
+        fill(&mut m, 0);
+        m.used_len()
+    };
     let mut g = c.benchmark_group("link");
     g.throughput(Throughput::Bytes(size as u64));
     g.sample_size(50);
@@ -128,6 +146,7 @@ fn idle_cost() {
 fn link(c: &mut Criterion) {
     idle_cost();
     across(c, "point_cloud_a_to_b", topics::POINT_CLOUD, fill_cloud);
+    across(c, "global_map_a_to_b", topics::GLOBAL_MAP, fill_map);
     across(c, "robot_state_a_to_b", topics::ROBOT_STATE, fill_state);
 }
 

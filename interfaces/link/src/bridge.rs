@@ -9,8 +9,9 @@
 //!   iceoryx2's default settings, which the processes then cannot open;
 //! - each bridged service gets one more publisher, subscriber and node (the link's), and
 //!   its event service (same name) one more notifier and listener: the wake-ups cross too;
-//! - samples travel whole, user header then payload, one Zenoh put per sample, keyed by
-//!   the service hash (`iox2/v1/channel/<hash>/<types fingerprint>`).
+//! - samples travel as user header then payload, one Zenoh put per sample, keyed by
+//!   the service hash (`iox2/v1/channel/<hash>/<types fingerprint>`); a catalogue
+//!   message's payload stops at its used part (`crate::trimmed`).
 //!
 //! - the link keeps no order between services: the tick protocol travels beside it
 //!   (`crate::ordered`), sequenced around its rounds;
@@ -21,6 +22,7 @@
 use crate::HostDecl;
 use crate::ordered::Ordered;
 use crate::probe::Probe;
+use crate::trimmed::Trimmed;
 use aisle_bus::{Bus, Instance};
 use aisle_messages::{NodeKind, topics};
 use iceoryx2::prelude::*;
@@ -202,7 +204,7 @@ fn run(
             .signal_handling_mode(SignalHandlingMode::Disabled)
             .create::<ipc::Service>()
             .map_err(|e| format!("link node: {e:?}"))?;
-        let mut link = Link::new(node, Tunnel::new(carrier, config))
+        let mut link = Link::new(node, Tunnel::new(Trimmed::new(carrier), config))
             .with_filter(move |name| topics.iter().any(|t| t.as_str() == name.as_str()));
         let listener = link.listener().map_err(|e| format!("link wake-up: {e}"))?;
         Ok((link, listener, ordered, probe, bus))

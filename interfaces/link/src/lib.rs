@@ -10,6 +10,7 @@
 //! - [`control`]: the supervisor's requests to a host daemon (start, spawn, kill, stop)
 //!   and the ends of a host's nodes, over Zenoh queryables.
 //! - [`bridge`]: the iceoryx2 Zenoh link of one host, bridging exactly those topics.
+//! - [`trimmed`]: the link's carrier, sending each message as the part of it in use.
 //! - [`probe`]: the one-way latency of the samples that cross to a host.
 //! - [`testing`]: two hosts in one process on the loopback interface (tests, benches).
 //!
@@ -23,6 +24,7 @@ pub mod hosts;
 mod ordered;
 pub mod probe;
 pub mod testing;
+pub mod trimmed;
 
 pub use beat::{BEAT, Beating, Beats};
 pub use bridge::{Bridge, LinkError, zenoh_config};

@@ -4,11 +4,12 @@
 //! node's end. (The same across real network namespaces: `tests/hosts.rs`.)
 
 use aisle_bus::WaitOutcome;
+use aisle_geometry::GridView;
 use aisle_link::testing::{LoopbackPair, loopback_decls};
 use aisle_link::{
     ControlClient, ControlServer, HostReply, HostRequest, open_session, zenoh_config,
 };
-use aisle_messages::topics;
+use aisle_messages::{GridMessage, Message, topics};
 use std::time::Duration;
 
 #[test]
@@ -46,6 +47,52 @@ fn a_bridged_topic_crosses_with_its_wake_up_and_no_other_does() {
         tick_in.receive().unwrap().is_none(),
         "the tick is not bridged"
     );
+}
+
+/// A global map crosses as its cells (`aisle_link::trimmed`) and arrives whole: the
+/// cells of the map, and zeros past them even where the receiving host's samples held a
+/// larger map before.
+#[test]
+fn maps_of_shrinking_size_arrive_whole() {
+    let pair = LoopbackPair::new("m", &[topics::GLOBAL_MAP.name]);
+    let mut out = pair.a.publisher(topics::GLOBAL_MAP).unwrap();
+    let inp = pair.b.subscriber(topics::GLOBAL_MAP).unwrap();
+    let send = |out: &mut aisle_bus::Publisher<_>, (w, h, v): (usize, usize, u8)| {
+        let cells = vec![v; w * h];
+        let map = GridView::new(0.0, 0.0, 0.1, w, h, &cells).unwrap();
+        out.publish(
+            aisle_bus::Stamp::default(),
+            |m: &mut aisle_messages::GlobalGrid| m.write(0, u64::from(v), &map).unwrap(),
+        )
+        .unwrap()
+    };
+    // Until the link has seen both sides, a sample may find nobody on the other one.
+    let crossed = (0..100).any(|_| {
+        let seq = send(&mut out, (10, 10, 9));
+        inp.wait_for(Duration::from_millis(100), |m| m.header().seq == seq, || {})
+            .is_ok_and(|(o, _)| o == WaitOutcome::Matched)
+    });
+    assert!(crossed, "no map crossed within 10 s");
+    // Larger maps first, so the receiving host's pool holds their cells.
+    for (w, h, v) in [(600, 400, 1), (500, 300, 2), (300, 200, 3), (30, 20, 4)] {
+        let seq = send(&mut out, (w, h, v));
+        let (outcome, got) = inp
+            .wait_for(Duration::from_secs(5), |m| m.header().seq == seq, || {})
+            .unwrap();
+        assert_eq!(outcome, WaitOutcome::Matched, "map {v} did not cross");
+        let m = got.expect("the matched sample");
+        assert_eq!(
+            (m.width, m.height, m.version),
+            (w as u32, h as u32, u64::from(v))
+        );
+        let cells = m.capacity_cells();
+        assert!(cells[..w * h].iter().all(|&c| c == v), "map {v}: its cells");
+        assert!(
+            cells[w * h..].iter().all(|&c| c == 0),
+            "map {v}: zeros past them"
+        );
+        assert_eq!(m.used_len(), 96 + w * h);
+    }
 }
 
 #[test]
