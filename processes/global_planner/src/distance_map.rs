@@ -6,9 +6,10 @@
 //!
 //! Nothing here is proportional to the map per request: a tile costs its own cells and
 //! those within the cap around it (read once per column strip, through the cached
-//! vertical pass), and only the tiles a search reads are computed. Maps of at most
-//! [`EAGER_CELLS`] are filled whole on a rebuild (one transform over the grid is cheaper
-//! there than tile by tile with their margins). A map that differs in a few cells (the
+//! vertical pass), and only the tiles a search reads are computed. Unless
+//! `force_lazy` is set (the planner sets it), maps of at most [`EAGER_CELLS`] are filled
+//! whole on a rebuild (one transform over the grid; the planner's tests' reference).
+//! A map that differs in a few cells (the
 //! mapper's detections between two requests) drops the tiles within the cap of them, to
 //! be computed again when read; every value read is bit for bit that of a whole-grid
 //! transform of the current cells. It also holds the memo of motion checks made on
@@ -35,7 +36,7 @@ const MASK: usize = TILE - 1;
 // A row of a tile's occupancy is one u64.
 const _: () = assert!(TILE == 64);
 
-/// Maps of at most this many cells are filled whole on a rebuild.
+/// Maps of at most this many cells are filled whole on a rebuild unless `force_lazy`.
 pub(crate) const EAGER_CELLS: usize = 1 << 20;
 
 /// Changes remembered for derived tables (`changes_since`).
@@ -107,6 +108,14 @@ pub(crate) struct DistanceMap {
 }
 
 impl DistanceMap {
+    /// Tables computed only as read, whatever the map's size.
+    pub fn lazy() -> DistanceMap {
+        DistanceMap {
+            force_lazy: true,
+            ..DistanceMap::default()
+        }
+    }
+
     /// Brings the tables to this map: nothing when they already describe it, the tiles
     /// near the changed cells dropped when only cells changed, else a rebuild. Returns
     /// true when anything changed.

@@ -19,8 +19,8 @@
 //! queue runs dry, which proves the cell unreachable). A request to the same goal cell
 //! on the same map and body resumes the last request's search rather than starting
 //! again (replans along a leg, repeated requests): its closed distances are as exact for
-//! any start. Small maps are searched whole at once (`eager`, plain Dijkstra), which
-//! also counts the cells the goal can be reached from. One array holds, per cell, blocked, not decided yet, or the distance of this
+//! any start. The planner's eager reference searches a small map whole at once
+//! (`eager`, plain Dijkstra), which also counts the cells the goal can be reached from. One array holds, per cell, blocked, not decided yet, or the distance of this
 //! request (untouched: unreached), so that a neighbour costs one comparison; blocked
 //! flags are kept between requests and dropped where the distance map changed, and only
 //! the cells a request touched are reset. Knows nothing of headings or motions.

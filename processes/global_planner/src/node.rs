@@ -197,9 +197,10 @@ impl Stage for PlannerStage {
                     io.latest(topics::GLOBAL_MAP_CHANGES)?.as_deref(),
                 )
             {
-                // The tables of the static layer (first plans of a leg use it; replans
-                // ask for the detections too), built before the first request, and the
-                // search's buffers made resident (a fresh process faults them in).
+                // The static layer (first plans of a leg use it; replans ask for the
+                // detections too) taken in before the first request (its distance tiles
+                // are computed as searches read them), and the search's buffers made
+                // resident (a fresh process faults them in).
                 if let Ok(view) = self.static_map.view() {
                     self.planner.prepare(&view);
                     self.planner.warm_up(&view);

@@ -1,6 +1,7 @@
-//! The lazy machinery of large maps (distance tiles computed as read, the heuristic's
-//! backward search run as far as queried, its budget counted when spent) against the
-//! eager one of small maps, on the seed map: the same paths bit for bit and the same
+//! The lazy machinery every map is planned with (distance tiles computed as read, the
+//! heuristic's backward search run as far as queried, its budget counted when spent)
+//! against the eager reference that fills a small map's tables whole
+//! (`Planner::eager_small_maps`), on the seed map: the same paths bit for bit and the same
 //! counters, except the heuristic cells a lazy request counts (those it closed, not all
 //! that the goal can be reached from). The state table is sparse in both; the golden
 //! digests (recorded with a dense one) cover it.
@@ -77,7 +78,7 @@ fn compare_on_seed(cfg: &PlannerConfig, budget: u32, cpm: f64) -> (usize, usize)
         Planner::new(cfg.clone()).unwrap(),
         Planner::new(cfg.clone()).unwrap(),
     );
-    lazy.lazy_only = true;
+    eager.eager_small_maps = true;
     let (mut fewer_cells, mut spent) = (0, 0);
     let cells = |o: &Result<Plan, PlanError>| match o {
         Ok(p) => p.stats.heuristic_cells,
@@ -113,7 +114,7 @@ fn replans_to_one_goal_plan_the_same_paths_as_eager_ones() {
         Planner::new(cfg.clone()).unwrap(),
         Planner::new(cfg).unwrap(),
     );
-    lazy.lazy_only = true;
+    eager.eager_small_maps = true;
     let mut planned = 0;
     for (i, r) in reqs.iter().enumerate() {
         for (j, from) in reqs.iter().enumerate() {
