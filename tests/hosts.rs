@@ -59,7 +59,7 @@ fn a_host_of_another_schema_is_refused_with_both_hashes() {
     );
     let err = String::from_utf8_lossy(&s.out.stderr);
     assert_eq!(s.out.status.code(), Some(2), "{err}");
-    let ours = format!("{:016x}", aisle_messages::schema_hash());
+    let ours = format!("{:016x}", aisle_link::group_hash());
     assert!(err.contains("host `b` refused"), "{err}");
     assert!(err.contains(other) && err.contains(&ours), "{err}");
 }

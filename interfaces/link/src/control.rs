@@ -30,7 +30,8 @@ use zenoh::sample::Sample;
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StartGroup {
-    /// The supervisor's schema hash, 16 hex digits.
+    /// The supervisor's [`crate::group_hash`] (the message schema with the link's wire
+    /// version), 16 hex digits.
     pub schema_hash: String,
     pub seed: u64,
     /// `TickMode` as announced on `aisle/instance`.

@@ -36,3 +36,16 @@ pub use hosts::{HostDecl, HostsFile, Placement};
 pub use probe::LinkSample;
 /// The Zenoh session a host's link and control share.
 pub use zenoh::Session;
+
+/// Version of what the link puts on the wire: 2 since a catalogue message crosses as its
+/// used part ([`trimmed`]), 1 before (whole samples, which a host of version 2 reads but
+/// one of version 1 refuses as malformed, silently).
+pub const WIRE_VERSION: u64 = 2;
+
+/// The hash the hosts of one group must share: the message schema's
+/// ([`aisle_messages::schema_hash`]) with [`WIRE_VERSION`] folded in, so a host whose
+/// link reads another wire format is refused at the start, naming both hashes, rather
+/// than dropping what crosses.
+pub fn group_hash() -> u64 {
+    aisle_messages::schema_hash() ^ WIRE_VERSION.wrapping_mul(0x9e37_79b9_7f4a_7c15)
+}

@@ -65,10 +65,11 @@ impl Part {
 }
 
 /// `aisle host`: serves until SIGINT or SIGTERM.
-/// `pretend_schema` stands in for this build's schema hash (fault injection for tests).
+/// `pretend_schema` stands in for this build's group hash (`aisle_link::group_hash`:
+/// the schema and the link's wire version; fault injection for tests).
 pub fn main(name: &str, hosts: &Path, config_dir: &Path, pretend_schema: Option<&str>) -> ExitCode {
     let ours = pretend_schema.map_or_else(
-        || format!("{:016x}", aisle_messages::schema_hash()),
+        || format!("{:016x}", aisle_link::group_hash()),
         str::to_string,
     );
     match serve(name, hosts, config_dir, &ours) {
@@ -162,7 +163,7 @@ struct Here<'a> {
     graph: &'a Graph,
     config_dir: &'a Path,
     session: &'a aisle_link::Session,
-    /// This build's schema hash, 16 hex digits.
+    /// This build's group hash (`aisle_link::group_hash`), 16 hex digits.
     schema: &'a str,
 }
 

@@ -108,7 +108,7 @@ impl RemoteNodes {
                 placed.insert(n.clone(), h.name.clone());
             }
             let start = StartGroup {
-                schema_hash: format!("{:016x}", aisle_messages::schema_hash()),
+                schema_hash: format!("{:016x}", aisle_link::group_hash()),
                 seed: s.seed,
                 mode: s.mode,
                 dt_ns: s.dt_ns,
