@@ -162,6 +162,7 @@ impl<Ch: Channel> Channel for TrimmedChannel<Ch> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use aisle_bus::message_bytes as bytes_of;
     use aisle_geometry::GridView;
     use aisle_messages::{GlobalGrid, GridMessage, RobotState, zeroed_box};
 
@@ -191,11 +192,6 @@ mod tests {
             }),
             restored: Vec::new(),
         }
-    }
-
-    fn bytes_of<M: Message>(m: &M) -> &[u8] {
-        // SAFETY: a message is plain numbers; its bytes are readable for its size.
-        unsafe { std::slice::from_raw_parts(m as *const M as *const u8, size_of::<M>()) }
     }
 
     #[test]

@@ -108,14 +108,6 @@ pub(crate) struct DistanceMap {
 }
 
 impl DistanceMap {
-    /// Tables computed only as read, whatever the map's size.
-    pub fn lazy() -> DistanceMap {
-        DistanceMap {
-            force_lazy: true,
-            ..DistanceMap::default()
-        }
-    }
-
     /// Brings the tables to this map: nothing when they already describe it, the tiles
     /// near the changed cells dropped when only cells changed, else a rebuild. Returns
     /// true when anything changed.

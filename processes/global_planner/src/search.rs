@@ -90,7 +90,7 @@ impl Planner {
         Ok(Self {
             model: Model::new(&cfg),
             cfg,
-            dm: DistanceMap::lazy(),
+            dm: DistanceMap::default(),
             heur: Default::default(),
             heur_last: 0,
             buf: Buffers::default(),

@@ -38,19 +38,28 @@ fn interior_samples(a: &Pose2, b: &Pose2) -> usize {
     }
 }
 
+/// The samples of segment `i` (from pose `i - 1` to pose `i`), in order: pose `i`
+/// itself, then the interior ones along the driven arc; each with the weight of pose
+/// `i - 1` in it (0 at pose `i`, 1 - u at fraction u).
+fn segment_samples(band: &Band, i: usize) -> impl Iterator<Item = (Pose2, f64)> {
+    let (a, b) = (band.poses[i - 1], band.poses[i]);
+    let n = interior_samples(&a, &b);
+    let path = SegmentPath::new(&a, &b);
+    (0..=n).map(move |j| {
+        if j == 0 {
+            (b, 0.0)
+        } else {
+            let u = j as f64 / (n + 1) as f64;
+            (path.at(u), 1.0 - u)
+        }
+    })
+}
+
 /// Exact value: every sample's shortfall below the margin.
 pub(super) fn merit(p: &Problem, band: &Band, t: &mut Tally) {
     let margin = kept(p);
     for i in 1..band.poses.len() {
-        let (a, b) = (band.poses[i - 1], band.poses[i]);
-        let n = interior_samples(&a, &b);
-        let path = SegmentPath::new(&a, &b);
-        for j in 0..=n {
-            let q = if j == 0 {
-                b
-            } else {
-                path.at(j as f64 / (n + 1) as f64)
-            };
+        for (q, _) in segment_samples(band, i) {
             let g = (margin - min_clearance(p.map, &p.footprint, &q, margin)).max(0.0);
             t.sum += g;
             t.worst.clearance = t.worst.clearance.max(g);
@@ -70,16 +79,7 @@ pub(super) fn linearise(
     let margin = kept(p);
     let reach = margin + p.cfg.solver.obstacle_influence + region.radius;
     for i in 1..band.poses.len() {
-        let (a, b) = (band.poses[i - 1], band.poses[i]);
-        let n = interior_samples(&a, &b);
-        let path = SegmentPath::new(&a, &b);
-        for sample in 0..=n {
-            let (pose, weight_prev) = if sample == 0 {
-                (b, 0.0)
-            } else {
-                let u = sample as f64 / (n + 1) as f64;
-                (path.at(u), 1.0 - u)
-            };
+        for (pose, weight_prev) in segment_samples(band, i) {
             nearest_per_sector(p.map, &p.footprint, &pose, reach, hits);
             // A cell the trust region cannot bring inside the margin gives a row
             // that is never active: leaving it out does not change the subproblem.
