@@ -48,7 +48,7 @@ pub(crate) fn slip(band: &Band, k: usize) -> f64 {
 /// How much more a change of the last pose costs than one of an interior pose: the
 /// band's end is held at the local goal by a heavy penalty, so the correction should
 /// come from the poses in between.
-const END_STIFFNESS: f64 = 100.0;
+pub(crate) const END_STIFFNESS: f64 = 100.0;
 
 /// Reusable buffers of the projection.
 #[derive(Debug, Default)]

@@ -27,6 +27,7 @@ mod clearance;
 mod config;
 mod conic;
 mod controller;
+mod correction;
 mod detour;
 mod direction;
 mod error;

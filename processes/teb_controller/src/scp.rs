@@ -8,8 +8,10 @@
 //! - every candidate is repaired before it is judged (kinematic slip projected out,
 //!   velocity limits and accelerations restored by lengthening time steps), so steps
 //!   are not rejected for the curvature of the linearised constraints;
-//! - a rejected step is retried once at a fraction of its length (one merit
-//!   evaluation) before the trust region shrinks;
+//! - a rejected step is corrected to second order (`correction.rs`: the clearance
+//!   and slip of the trial band relinearised at it, one least-squares solve) and, if
+//!   still rejected, retried once at a fraction of its length (one merit evaluation)
+//!   before the trust region shrinks;
 //! - the loop stops once the band meets every constraint and the next subproblem
 //!   promises only a small fraction of the merit. (A step the model foresaw exactly
 //!   inside its trust region is no reason to stop: the model is the old band's, and
@@ -18,10 +20,11 @@
 
 use crate::band::Band;
 use crate::clearance::CellHit;
+use crate::correction::Corrector;
 use crate::direction::DriveSign;
 use crate::kinematics::Projector;
 use crate::objective::segment::{d_at, kinematic_residual};
-use crate::objective::{self, Problem};
+use crate::objective::{self, Problem, Shortfall};
 use crate::qp::Qp;
 use crate::timing::{retime, stretch_to_velocity_limits};
 use crate::trust_region::TrustRegion;
@@ -42,6 +45,8 @@ pub(crate) struct Scp {
     hits: [Option<CellHit>; 4],
     proj: Projector,
     slip_target: Vec<f64>,
+    corrector: Corrector,
+    shortfalls: Vec<Option<Shortfall>>,
 }
 
 /// `candidate` = `band` moved by `alpha` times the step `x` (pose steps, then time
@@ -60,6 +65,13 @@ fn apply_step(candidate: &mut Band, band: &Band, x: &[f64], alpha: f64, min_dt: 
     }
 }
 
+/// The velocity limits, then the accelerations, restored in `band` by lengthening time
+/// steps.
+fn repair_time_steps(band: &mut Band, p: &Problem) {
+    stretch_to_velocity_limits(band, p.v_limit(), p.cfg.limits.max_angular_velocity);
+    retime(band, &p.timing());
+}
+
 /// Largest constraint violation (in each constraint's units) of a band that counts as
 /// meeting every constraint.
 pub(crate) const FEASIBLE: f64 = 1e-3;
@@ -67,6 +79,8 @@ pub(crate) const FEASIBLE: f64 = 1e-3;
 const PROJECTION_SWEEPS: usize = 2;
 /// Fraction of a rejected step tried before the next subproblem.
 const LINE_STEP: f64 = 0.3;
+/// Least ratio of actual to predicted decrease that keeps a step.
+const ACCEPT_RATIO: f64 = 0.1;
 
 impl Scp {
     pub fn new() -> Scp {
@@ -76,6 +90,8 @@ impl Scp {
             hits: [None; 4],
             proj: Projector::default(),
             slip_target: Vec::new(),
+            corrector: Corrector::default(),
+            shortfalls: Vec::new(),
         }
     }
 
@@ -136,7 +152,7 @@ impl Scp {
             } else {
                 f64::NEG_INFINITY
             };
-            if ratio > 0.1 {
+            if ratio > ACCEPT_RATIO {
                 band.copy_from(&self.candidate);
                 merit = cand_merit;
                 worst = cand_worst;
@@ -144,6 +160,15 @@ impl Scp {
                     scale = (scale * 2.0).min(2.0);
                 }
                 continue;
+            }
+            if self.correct(p, scale * cfg.trust_radius) {
+                let (corrected, corrected_worst) = objective::merit(p, &self.candidate);
+                if corrected.is_finite() && merit - corrected > ACCEPT_RATIO * predicted {
+                    band.copy_from(&self.candidate);
+                    merit = corrected;
+                    worst = corrected_worst;
+                    continue;
+                }
             }
             scale *= 0.3;
             // The convex model is minimised along the whole step, so a shorter step
@@ -194,12 +219,33 @@ impl Scp {
             self.proj
                 .project(&mut self.candidate, &self.slip_target, PROJECTION_SWEEPS);
         }
-        stretch_to_velocity_limits(
-            &mut self.candidate,
-            p.v_limit(),
-            p.cfg.limits.max_angular_velocity,
-        );
-        retime(&mut self.candidate, &p.timing());
+        repair_time_steps(&mut self.candidate, p);
+    }
+
+    /// The second-order correction of the trial band in `candidate` (`correction.rs`):
+    /// its slip back to the subproblem's targets and each segment's deepest sample
+    /// below the kept clearance back to it, then its time steps repaired as in
+    /// [`Scp::polish`]. Returns whether it moved the band (not when the correction
+    /// would exceed `limit`, the trust region's radius).
+    fn correct(&mut self, p: &Problem, limit: f64) -> bool {
+        if !p.direction.drives() {
+            return false;
+        }
+        // One Gauss-Newton sweep: a second one, with the shortfalls found again, left a
+        // seed record's steps where they were at 15 % more time.
+        objective::shortfalls(p, &self.candidate, &mut self.shortfalls);
+        if self.shortfalls.iter().all(Option::is_none)
+            || !self.corrector.sweep(
+                &mut self.candidate,
+                &self.slip_target,
+                &self.shortfalls,
+                limit,
+            )
+        {
+            return false;
+        }
+        repair_time_steps(&mut self.candidate, p);
+        true
     }
 
     /// Assembles the subproblem in the step variables around `band`.

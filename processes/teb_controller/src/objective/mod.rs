@@ -14,6 +14,9 @@
 //! | acceleration  | `acceleration.rs` | `constraint`   | linearised, slack              |
 //! | clearance     | `clearance.rs`    | `constraint`   | nearest cells, linear, slack   |
 //!
+//! `clearance.rs` also finds each segment's deepest sample below the kept clearance
+//! ([`shortfalls`]), what the SCP loop's second-order correction restores.
+//!
 //! The constraint terms are L1 penalties: the merit is an exact penalty function, and
 //! [`Violations`] reports each constraint's worst value in its own unit.
 //!
@@ -29,6 +32,8 @@ mod motion;
 pub(crate) mod segment;
 mod time;
 mod tracking;
+
+pub(crate) use clearance::{Shortfall, shortfalls};
 
 use aisle_geometry::{Direction, Footprint, GridView, Pose2};
 
