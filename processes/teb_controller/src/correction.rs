@@ -9,9 +9,9 @@
 //! clearance the subproblem kept to first order. Near a local optimum pressed against
 //! an obstacle the step's gain is first order in its length and that error second
 //! order, but the L1 penalty charges it at the constraint weight: on a seed record's
-//! worst step six steps in a row were rejected (ratios -24 to -0.2, samples 0.3 to
-//! 29 mm inside), the trust region shrank and the step ran out of subproblems 11 %
-//! above its optimum. Correcting the trial band (one least-squares solve, no
+//! worst step four of the last six steps were rejected (ratios -24 to -0.2, samples
+//! 0.4 to 29 mm inside), the trust region shrank and the step ran out of subproblems
+//! 11 % above its optimum. Correcting the trial band (one least-squares solve, no
 //! subproblem) keeps the step and its gain.
 //!
 //! Both constraints of a segment involve its two poses only, so the normal equations
