@@ -16,7 +16,6 @@ use crate::output::ExitFlag;
 use crate::reference::Reference;
 use crate::scp::Scp;
 use crate::seed;
-use crate::timing;
 
 /// Farthest a blocked pose is pushed sideways before the optimiser runs, m.
 const MAX_DETOUR: f64 = 3.0;
@@ -137,10 +136,9 @@ impl Planner {
         if problem.direction.drives() {
             self.scp.project_kinematics(&mut self.band);
         }
-        // A split whose halves follow an arc is longer than the chord it replaces.
-        stretch_to_velocity_limits(&mut self.band, problem);
-        // A split halves the span a velocity change is spread over.
-        timing::retime(&mut self.band, &problem.timing());
+        // A split whose halves follow an arc is longer than the chord it replaces, and
+        // halves the span a velocity change is spread over.
+        problem.repair_time_steps(&mut self.band);
         // A second, shorter round from the trust region the first round ended with.
         let (resized, _) = objective::merit(problem, &self.band);
         if resized > done.merit + cfg.solver.tolerance {
@@ -219,18 +217,8 @@ impl Planner {
     /// Numerical slack of the cones must not leak into the commands, nor a sharper
     /// acceleration than slowing down can avoid.
     pub fn finish(&mut self, problem: &Problem) {
-        stretch_to_velocity_limits(&mut self.band, problem);
-        timing::retime(&mut self.band, &problem.timing());
+        problem.repair_time_steps(&mut self.band);
     }
-}
-
-/// [`timing::stretch_to_velocity_limits`] under the problem's limits.
-fn stretch_to_velocity_limits(band: &mut Band, problem: &Problem) {
-    timing::stretch_to_velocity_limits(
-        band,
-        problem.v_limit(),
-        problem.cfg.limits.max_angular_velocity,
-    );
 }
 
 /// Whether the footprint swept along `band` (at the exit flag's step) keeps the

@@ -26,7 +26,6 @@ use crate::kinematics::Projector;
 use crate::objective::segment::{d_at, kinematic_residual};
 use crate::objective::{self, Problem, Shortfall};
 use crate::qp::Qp;
-use crate::timing::{retime, stretch_to_velocity_limits};
 use crate::trust_region::TrustRegion;
 
 /// What one optimisation did.
@@ -63,13 +62,6 @@ fn apply_step(candidate: &mut Band, band: &Band, x: &[f64], alpha: f64, min_dt: 
     for k in 0..band.dts.len() {
         candidate.dts[k] = (band.dts[k] + alpha * x[t0 + k]).max(min_dt);
     }
-}
-
-/// The velocity limits, then the accelerations, restored in `band` by lengthening time
-/// steps.
-fn repair_time_steps(band: &mut Band, p: &Problem) {
-    stretch_to_velocity_limits(band, p.v_limit(), p.cfg.limits.max_angular_velocity);
-    retime(band, &p.timing());
 }
 
 /// Largest constraint violation (in each constraint's units) of a band that counts as
@@ -219,7 +211,7 @@ impl Scp {
             self.proj
                 .project(&mut self.candidate, &self.slip_target, PROJECTION_SWEEPS);
         }
-        repair_time_steps(&mut self.candidate, p);
+        p.repair_time_steps(&mut self.candidate);
     }
 
     /// The second-order correction of the trial band in `candidate` (`correction.rs`):
@@ -244,7 +236,7 @@ impl Scp {
         {
             return false;
         }
-        repair_time_steps(&mut self.candidate, p);
+        p.repair_time_steps(&mut self.candidate);
         true
     }
 

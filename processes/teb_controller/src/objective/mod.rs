@@ -81,6 +81,17 @@ impl Problem<'_> {
         }
     }
 
+    /// Restores in `band`, by lengthening time steps, the velocity limits and then the
+    /// accelerations (as far as slowing down can: `timing::retime`).
+    pub fn repair_time_steps(&self, band: &mut Band) {
+        crate::timing::stretch_to_velocity_limits(
+            band,
+            self.v_limit(),
+            self.cfg.limits.max_angular_velocity,
+        );
+        crate::timing::retime(band, &self.timing());
+    }
+
     /// Speed limit in the section's direction, m/s.
     pub fn v_limit(&self) -> f64 {
         self.cfg.limits.speed_limit(self.direction)
