@@ -8,6 +8,7 @@ use aisle_geometry::{Pose2, wrap_angle};
 use serde::{Deserialize, Serialize};
 
 use crate::TebError;
+use crate::steps::Steps;
 
 /// `poses[0]` is the robot's pose when the band was optimised; `dts[k]` is the time, s,
 /// from `poses[k]` to `poses[k + 1]`. Headings are continuous (not wrapped) along the
@@ -109,39 +110,61 @@ impl Band {
         self.unwrap_headings();
     }
 
-    /// TEB's auto-resize: a segment longer than `dt_ref + hysteresis` is split in two
-    /// (at the middle of the arc the segment's end poses define) and one shorter than `dt_ref - hysteresis` is merged with its
-    /// neighbour, as long as the merged segment stays below `dt_ref + hysteresis`.
+    /// TEB's auto-resize around each segment's reference step ([`Steps`]): a segment
+    /// the steps call too long is split in two (at the middle of the arc the segment's
+    /// end poses define) and one shorter than its step less the hysteresis is merged
+    /// with its neighbour, as long as the steps would not split the merged segment.
     /// The first and last poses never move.
-    pub fn resize(&mut self, dt_ref: f64, hysteresis: f64, min_poses: usize, max_poses: usize) {
+    pub fn resize(&mut self, steps: &Steps, min_poses: usize, max_poses: usize) {
         let mut k = 0;
+        // When segment k starts, s.
+        let mut start = 0.0;
         while k < self.dts.len() {
             let t = self.dts[k];
-            if t > dt_ref + hysteresis && self.poses.len() < max_poses {
+            if self.poses.len() < max_poses && steps.splits(start, t) {
                 let mid = arc_midpoint(&self.poses[k], &self.poses[k + 1]);
                 self.poses.insert(k + 1, mid);
                 self.dts[k] = 0.5 * t;
                 self.dts.insert(k + 1, 0.5 * t);
                 continue;
             }
-            if t < dt_ref - hysteresis && self.poses.len() > min_poses && self.dts.len() >= 2 {
+            if steps.is_short(start, t) && self.poses.len() > min_poses && self.dts.len() >= 2 {
                 if k + 1 < self.dts.len() {
-                    if t + self.dts[k + 1] <= dt_ref + hysteresis {
+                    let merged = t + self.dts[k + 1];
+                    if !steps.splits(start, merged) {
                         self.poses.remove(k + 1);
-                        self.dts[k] = t + self.dts[k + 1];
+                        self.dts[k] = merged;
                         self.dts.remove(k + 1);
                         continue;
                     }
-                } else if k >= 1 && t + self.dts[k - 1] <= dt_ref + hysteresis {
-                    // Last segment: drop the pose before the end instead of the end.
-                    self.poses.remove(k);
-                    self.dts[k - 1] += t;
-                    self.dts.remove(k);
-                    break;
+                } else if k >= 1 {
+                    let merged = t + self.dts[k - 1];
+                    let before = start - self.dts[k - 1];
+                    if !steps.splits(before, merged) {
+                        // Last segment: drop the pose before the end instead of the end.
+                        self.poses.remove(k);
+                        self.dts[k - 1] = merged;
+                        self.dts.remove(k);
+                        break;
+                    }
                 }
             }
+            start += t;
             k += 1;
         }
+    }
+
+    /// Whether [`Band::resize`] would split a segment.
+    pub fn has_long_segment(&self, steps: &Steps, max_poses: usize) -> bool {
+        if self.poses.len() >= max_poses {
+            return false;
+        }
+        let mut start = 0.0;
+        self.dts.iter().any(|&t| {
+            let long = steps.splits(start, t);
+            start += t;
+            long
+        })
     }
 }
 
@@ -173,10 +196,11 @@ fn arc_midpoint(a: &Pose2, b: &Pose2) -> Pose2 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn straight(n: usize, step: f64, dt: f64) -> Band {
+    /// `n` poses `step` m apart along x, `dt` s apart.
+    pub(crate) fn straight(n: usize, step: f64, dt: f64) -> Band {
         Band {
             poses: (0..n)
                 .map(|i| Pose2::new(i as f64 * step, 0.0, 0.0))
@@ -188,7 +212,7 @@ mod tests {
     #[test]
     fn resize_splits_long_and_merges_short_segments() {
         let mut b = straight(3, 1.0, 0.9);
-        b.resize(0.3, 0.1, 3, 50);
+        b.resize(&Steps::uniform(0.3, 0.1), 3, 50);
         assert!(
             b.dts
                 .iter()
@@ -199,7 +223,7 @@ mod tests {
         assert!((b.duration() - 1.8).abs() < 1e-12);
         assert_eq!(b.poses.last().unwrap().x, 2.0);
         let mut b = straight(9, 0.1, 0.1);
-        b.resize(0.3, 0.1, 3, 50);
+        b.resize(&Steps::uniform(0.3, 0.1), 3, 50);
         assert!(b.poses.len() < 9);
         assert!((b.duration() - 0.8).abs() < 1e-12);
         assert_eq!(b.poses.last().unwrap().x, 0.8);
@@ -216,7 +240,7 @@ mod tests {
                 poses: vec![on(0.0), on(std::f64::consts::FRAC_PI_2)],
                 dts: vec![1.0],
             };
-            b.resize(0.3, 0.1, 2, 3);
+            b.resize(&Steps::uniform(0.3, 0.1), 2, 3);
             assert_eq!(b.poses.len(), 3);
             let want = on(std::f64::consts::FRAC_PI_4);
             let got = b.poses[1];

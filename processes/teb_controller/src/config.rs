@@ -56,6 +56,10 @@ pub struct BandConfig {
     pub dt_ref: f64,
     /// Hysteresis around `dt_ref` before a segment is split or merged, s.
     pub dt_hysteresis: f64,
+    /// The band keeps `dt_ref` for this many seconds from the robot; beyond, the
+    /// reference step grows in proportion to the time from the robot
+    /// ([`crate::Steps`]). 0: `dt_ref` along the whole band.
+    pub fine_time: f64,
     /// Smallest time step the optimiser may choose, s (keeps timestamps increasing).
     pub min_dt: f64,
     /// Fewest and most poses in the band (the start pose included).
@@ -68,12 +72,24 @@ pub struct BandConfig {
     pub reinit_distance: f64,
 }
 
+impl BandConfig {
+    /// The reference steps along the band (`fine_time` 0: uniform).
+    pub fn steps(&self) -> crate::steps::Steps {
+        crate::steps::Steps {
+            dt_ref: self.dt_ref,
+            hysteresis: self.dt_hysteresis,
+            fine_time: self.fine_time,
+        }
+    }
+}
+
 impl Default for BandConfig {
     fn default() -> Self {
         Self {
             look_ahead_time: 3.0,
             dt_ref: 0.3,
             dt_hysteresis: 0.1,
+            fine_time: 1.5,
             min_dt: 0.02,
             min_poses: 3,
             max_poses: 60,
@@ -296,6 +312,7 @@ impl Validate for TebConfig {
                 "must be smaller than band.dt_ref",
             ));
         }
+        non_negative("band.fine_time", b.fine_time)?;
         positive("band.min_dt", b.min_dt)?;
         if b.min_dt >= b.dt_ref - b.dt_hysteresis {
             return Err(bad(

@@ -11,18 +11,14 @@ use crate::reference::Reference;
 
 /// Whether a segment is long enough that auto-resize would split it.
 pub(crate) fn has_long_segment(band: &Band, cfg: &TebConfig) -> bool {
-    band.poses.len() < cfg.band.max_poses
-        && band
-            .dts
-            .iter()
-            .any(|&t| t > cfg.band.dt_ref + cfg.band.dt_hysteresis)
+    band.has_long_segment(&cfg.band.steps(), cfg.band.max_poses)
 }
 
 /// Resizes the band around the reference time step (with hysteresis) and splits it up
 /// to the minimum number of poses.
 pub(crate) fn resize(band: &mut Band, cfg: &TebConfig) {
     let b = &cfg.band;
-    band.resize(b.dt_ref, b.dt_hysteresis, b.min_poses, b.max_poses);
+    band.resize(&cfg.band.steps(), b.min_poses, b.max_poses);
     ensure_min_poses(band, b.min_poses);
 }
 
