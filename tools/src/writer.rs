@@ -165,8 +165,11 @@ impl<W: Write + Seek> RecordWriter<W> {
             .profile(PROFILE)
             .library(format!("aisle-tools {}", env!("CARGO_PKG_VERSION")))
             .compression(compression)
-            // One compressor thread: the recorder shares two cores with the whole stack.
-            .compression_threads(1)
+            // Compress in the writing thread, no zstd worker: the recorder's writer runs
+            // at idle priority and hands its work to the node thread at the end of a run
+            // (`record::write`); a worker it had started would stay idle-priority, and
+            // starve under load with the rest of the record in it.
+            .compression_threads(0)
             .chunk_size(Some(options.chunk_size))
             .create(w)?;
         let schema_hash = aisle_messages::schema_hash_hex();

@@ -27,6 +27,9 @@ pub struct MonitorStage {
     /// legs, slowly, swept against the map by the controller itself): the monitor's
     /// field is muted, as a safety scanner's is at a docking station.
     docking: bool,
+    /// A goal's mute decision not yet in force: (the goal's tick, muted). See
+    /// [`MonitorStage::update_mute`].
+    pending_mute: Option<(u64, bool)>,
     /// The newest velocity the simulator applied (linear, angular).
     twist: Option<[f64; 2]>,
     /// The sign of the robot's last linear motion (+1 forward, -1 backwards).
@@ -64,6 +67,7 @@ impl MonitorStage {
             alone: corridor(f.alone.length, f.alone.width),
             carrying: corridor(f.carrying.length, f.carrying.width),
             docking: false,
+            pending_mute: None,
             twist: None,
             last_direction: 1.0,
             next_id: 1,
@@ -98,6 +102,32 @@ pub fn base_frame_points(cloud: &PointCloud) -> impl Iterator<Item = [f64; 3]> +
     })
 }
 
+impl MonitorStage {
+    /// Brings the mute decision up to the goals made before tick `tick`. The supervisor
+    /// sends a goal while it handles a tick, in lockstep at the same time as this node
+    /// judges that tick's scan: whether a goal of tick `tick` has arrived yet is a race,
+    /// so it waits for the next scan; every goal of an earlier tick was sent before the
+    /// simulator released `tick`, and is here.
+    fn update_mute(&mut self, tick: u64, io: &impl Io) -> Result<(), NodeError> {
+        let muted = |mode: u32| {
+            // Straight docking moves and turns on the spot: neither drives the
+            // footprint towards anything ahead of it.
+            mode == GoalMode::Straight as u32 || mode == GoalMode::RotateInPlace as u32
+        };
+        if let Some((_, m)) = self.pending_mute.take_if(|(t, _)| *t < tick) {
+            self.docking = m;
+        }
+        // Goals arrive in the order they were sent: once one waits, so do the newer.
+        while let Some(goal) = io.receive(topics::CONTROLLER_GOAL)? {
+            match (goal.header.tick, muted(goal.mode)) {
+                (t, m) if t < tick && self.pending_mute.is_none() => self.docking = m,
+                later => self.pending_mute = Some(later),
+            }
+        }
+        Ok(())
+    }
+}
+
 impl Stage for MonitorStage {
     const KIND: NodeKind = NodeKind::External(ExternalNode::new(NAME));
     type Trigger = PointCloud;
@@ -114,13 +144,8 @@ impl Stage for MonitorStage {
     }
 
     fn process(&mut self, cloud: &PointCloud, io: &impl Io) -> Result<Cycle, NodeError> {
+        self.update_mute(cloud.header.tick, io)?;
         // The velocity the simulator applied at the scan's tick.
-        if let Some(goal) = io.latest(topics::CONTROLLER_GOAL)? {
-            // Straight docking moves and turns on the spot: the monitor's field is
-            // muted (neither drives the footprint towards anything ahead of it).
-            self.docking = goal.mode == GoalMode::Straight as u32
-                || goal.mode == GoalMode::RotateInPlace as u32;
-        }
         if let Some(rs) = io.latest(topics::ROBOT_STATE)? {
             self.twist = Some(rs.twist);
             if rs.twist[0].abs() >= self.rule.config.moving_speed {
@@ -163,5 +188,58 @@ impl Stage for MonitorStage {
             )?;
         }
         Ok(Cycle::done())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use aisle_node::testing::MemIo;
+
+    fn stage() -> MonitorStage {
+        let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config");
+        MonitorStage::load(&shipped).unwrap()
+    }
+
+    fn send_goal(io: &MemIo, tick: u64, mode: GoalMode) {
+        io.push(topics::CONTROLLER_GOAL, |g| {
+            g.header.tick = tick;
+            g.mode = mode as u32;
+        });
+    }
+
+    /// The supervisor sends goals while it handles a tick, in lockstep at the same time
+    /// as the monitor judges that tick's scan. Whether the goal arrived first or not, it
+    /// mutes (or unmutes) from the next scan on, so two runs judge every scan alike.
+    #[test]
+    fn a_goal_takes_effect_from_the_scan_after_its_tick_whenever_it_arrives() {
+        let (mut early, mut late) = (stage(), stage());
+        let (io_early, io_late) = (MemIo::new(), MemIo::new());
+        send_goal(&io_early, 9, GoalMode::RotateInPlace);
+        send_goal(&io_late, 9, GoalMode::RotateInPlace);
+        for (s, io) in [(&mut early, &io_early), (&mut late, &io_late)] {
+            s.update_mute(10, io).unwrap();
+            assert!(s.docking, "a goal of tick 9 is in force at scan 10");
+        }
+        // Tick 10's goal: here before scan 10 is judged, there after it.
+        send_goal(&io_early, 10, GoalMode::Follow);
+        early.update_mute(10, &io_early).unwrap();
+        late.update_mute(10, &io_late).unwrap();
+        send_goal(&io_late, 10, GoalMode::Follow);
+        assert!(early.docking && late.docking, "scan 10 judged alike");
+        early.update_mute(11, &io_early).unwrap();
+        late.update_mute(11, &io_late).unwrap();
+        assert!(
+            !early.docking && !late.docking,
+            "scan 11 follows tick 10's goal"
+        );
+        // Goals of one tick: the last one sent holds.
+        send_goal(&io_early, 11, GoalMode::Straight);
+        send_goal(&io_early, 11, GoalMode::Follow);
+        send_goal(&io_early, 12, GoalMode::Straight);
+        early.update_mute(12, &io_early).unwrap();
+        assert!(!early.docking, "tick 11's last goal, not tick 12's");
+        early.update_mute(13, &io_early).unwrap();
+        assert!(early.docking);
     }
 }

@@ -322,6 +322,14 @@ impl ProcessGroup {
         }
         for c in self.children.iter_mut().filter(|c| which(c.kind)) {
             if c.exited.is_none() {
+                if c.kind == NodeKind::Recorder {
+                    // What it had not written is lost: say so, the file is not finalised.
+                    tracing::error!(
+                        "the recorder had not finalised its file {} s after the group stopped \
+                         and was killed: the record is cut short",
+                        grace.as_secs()
+                    );
+                }
                 let _ = c.child.kill();
                 c.exited = c.child.wait().ok();
             }

@@ -128,7 +128,11 @@ impl Planner {
             iterations: stats.iterations,
             merit: stats.merit,
         };
-        if !seed::has_long_segment(&self.band, cfg) || sweep_is_clear(&self.band, problem) {
+        if !self
+            .band
+            .has_long_segment(&cfg.band.steps(), cfg.band.max_poses)
+            || sweep_is_clear(&self.band, problem)
+        {
             return done;
         }
         seed::resize(&mut self.band, cfg);

@@ -9,11 +9,6 @@ use crate::config::TebConfig;
 use crate::leg::Leg;
 use crate::reference::Reference;
 
-/// Whether a segment is long enough that auto-resize would split it.
-pub(crate) fn has_long_segment(band: &Band, cfg: &TebConfig) -> bool {
-    band.has_long_segment(&cfg.band.steps(), cfg.band.max_poses)
-}
-
 /// Resizes the band around the reference time step (with hysteresis) and splits it up
 /// to the minimum number of poses.
 pub(crate) fn resize(band: &mut Band, cfg: &TebConfig) {

@@ -22,7 +22,7 @@ use std::io::BufWriter;
 use std::net::SocketAddr;
 use std::path::Path;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc;
 use std::thread::JoinHandle;
 
@@ -51,7 +51,9 @@ pub(super) struct WriterThread {
     pub free: mpsc::Receiver<(usize, AlignedBuf)>,
     /// Payload bytes queued and not written yet.
     pub queued: Arc<AtomicUsize>,
-    thread: JoinHandle<Result<Written, WriteError>>,
+    /// Set at the end of the run: the writer thread hands its work back.
+    handover: Arc<AtomicBool>,
+    thread: JoinHandle<Result<Option<Pump<Output>>, WriteError>>,
 }
 
 /// What the writer thread wrote and served.
@@ -75,22 +77,33 @@ impl WriterThread {
         let (jobs, job_rx) = mpsc::channel::<Job>();
         let (free_tx, free_rx) = mpsc::channel::<(usize, AlignedBuf)>();
         let queued = Arc::new(AtomicUsize::new(0));
+        let handover = Arc::new(AtomicBool::new(false));
         let write = WriteLoop {
             writer,
             live: options.live,
             ready: ready_tx,
-            jobs: job_rx,
-            free: free_tx,
-            queued: queued.clone(),
-            names: names.to_vec(),
             viewer: options.viewer,
             models,
-            clock,
-            flush_period_ns: options.flush_period.as_nanos() as u64,
+            intake: Intake {
+                jobs: job_rx,
+                free: free_tx,
+                queued: queued.clone(),
+                names: names.to_vec(),
+                clock,
+                flush_period_ns: options.flush_period.as_nanos() as u64,
+            },
         };
+        let handed_over = handover.clone();
         let thread = std::thread::Builder::new()
             .name("recorder-writer".into())
-            .spawn(move || write.run())
+            .spawn(move || {
+                run_only_when_idle();
+                let Some(mut pump) = write.start() else {
+                    return Ok(None);
+                };
+                pump.run(Some(&handed_over))?;
+                Ok(Some(pump))
+            })
             .map_err(|e| NodeError::setup("the writer thread", e))?;
         // The live view starts in the writer thread (so the server's threads inherit its
         // idle priority); a bad address is a setup error before the node is ready.
@@ -107,18 +120,41 @@ impl WriterThread {
             jobs,
             free: free_rx,
             queued,
+            handover,
             thread,
         })
     }
 
-    /// Closes the queue and waits until the file is finalised and the live view closed.
+    /// Closes the queue, takes the writing back from the writer thread, writes what is
+    /// still queued on the calling thread and finalises the file and the live view.
+    ///
+    /// Why on the calling thread: the run is over, so nothing is left to protect from
+    /// the writer, but an idle-priority thread gets next to no CPU while the machine is
+    /// busy (a test suite, a CPU hog), and cannot raise its own priority back without
+    /// privilege; the supervisor's grace would run out with the queue unwritten and the
+    /// file unfinalised. The writer thread returns after the job it is on.
     pub(super) fn finish(self, out: &Path) -> Result<Written, NodeError> {
-        let WriterThread { jobs, thread, .. } = self;
+        let WriterThread {
+            jobs,
+            handover,
+            thread,
+            ..
+        } = self;
         drop(jobs);
-        thread
+        handover.store(true, Ordering::Release);
+        let failed = |e: WriteError| NodeError::Protocol(format!("writing {}: {e}", out.display()));
+        let pump = thread
             .join()
             .map_err(|_| NodeError::Protocol("the writer thread panicked".into()))?
-            .map_err(|e| NodeError::Protocol(format!("writing {}: {e}", out.display())))
+            .map_err(failed)?;
+        let Some(mut pump) = pump else {
+            return Ok(Written {
+                counts: WriteCounts::default(),
+                live: None,
+            });
+        };
+        pump.run(None).map_err(failed)?;
+        pump.finish().map_err(failed)
     }
 }
 
@@ -132,7 +168,7 @@ fn create(out: &Path, options: &RecorderOptions) -> Result<RecordWriter<Output>,
 
 type Output = BufWriter<File>;
 
-/// The writer thread's state.
+/// What the writer thread starts from.
 struct WriteLoop<W: std::io::Write + std::io::Seek> {
     /// The record file; `None` for a live view alone.
     writer: Option<RecordWriter<W>>,
@@ -140,24 +176,32 @@ struct WriteLoop<W: std::io::Write + std::io::Seek> {
     live: Option<SocketAddr>,
     /// Told once the live view serves (or could not start).
     ready: mpsc::SyncSender<Result<(), LiveError>>,
+    viewer: ViewerOptions,
+    /// The robot model and the scene's static bodies the viewer channels show.
+    models: ViewerModels,
+    intake: Intake,
+}
+
+/// Where the jobs come from and where their buffers go back, and how they are stamped
+/// and flushed: what the writing keeps across the handover.
+struct Intake {
     jobs: mpsc::Receiver<Job>,
     free: mpsc::Sender<(usize, AlignedBuf)>,
     queued: Arc<AtomicUsize>,
     names: Vec<&'static str>,
-    viewer: ViewerOptions,
-    /// The robot model and the scene's static bodies the viewer channels show.
-    models: ViewerModels,
     /// Maps receive times to `log_time`.
     clock: LogClock,
     flush_period_ns: u64,
 }
 
-/// Puts the calling thread (and the compression worker it starts) in `SCHED_IDLE`: it
-/// runs only on a core no stage wants, so encoding and compressing the record never
-/// delays a stage. The drain thread, which copies out of shared memory and acknowledges
-/// lockstep ticks, keeps its normal priority; the queue between them (`queue_bytes`)
-/// absorbs the backlog. Lowering its own priority needs no privilege; if the OS still
-/// refuses, the recorder says so once and writes at normal priority.
+/// Puts the calling thread in `SCHED_IDLE`: it runs only on a core no stage wants, so
+/// encoding and compressing the record (in this thread: the writer starts no compression
+/// worker) never delays a stage. The drain thread, which copies out of shared memory
+/// and acknowledges lockstep ticks, keeps its normal priority; the queue between them
+/// (`queue_bytes`) absorbs the backlog, and what is left when the run ends is written by
+/// the drain thread ([`WriterThread::finish`]). Lowering its own priority needs no
+/// privilege; if the OS still refuses, the recorder says so once and writes at normal
+/// priority.
 fn run_only_when_idle() {
     let param = libc::sched_param { sched_priority: 0 };
     // SAFETY: plain system call on the calling thread (pid 0) with a valid parameter.
@@ -171,96 +215,134 @@ fn run_only_when_idle() {
 }
 
 impl<W: std::io::Write + std::io::Seek> WriteLoop<W> {
-    fn run(self) -> Result<Written, WriteError> {
-        run_only_when_idle();
-        let WriteLoop {
-            mut writer,
-            live,
-            ready,
-            jobs,
-            free,
-            queued,
-            names,
-            viewer,
-            models,
-            mut clock,
-            flush_period_ns,
-        } = self;
-        let mut live = match live.map(LiveServer::start).transpose() {
+    /// Starts the live view (when asked) and the viewer conversion; `None` when the
+    /// live view could not start (the node thread is told through `ready`).
+    fn start(self) -> Option<Pump<W>> {
+        let live = match self.live.map(LiveServer::start).transpose() {
             Ok(live) => live,
             Err(e) => {
-                let _ = ready.send(Err(e));
-                return Ok(Written {
-                    counts: WriteCounts::default(),
-                    live: None,
-                });
+                let _ = self.ready.send(Err(e));
+                return None;
             }
         };
         if let Some(l) = &live {
             tracing::info!("recorder: serving the live view on ws://{}", l.addr());
         }
-        let _ = ready.send(Ok(()));
-        let mut viewer = ViewerConverter::new(viewer);
-        if let Some(model) = &models.robot {
+        let _ = self.ready.send(Ok(()));
+        let mut viewer = ViewerConverter::new(self.viewer);
+        if let Some(model) = &self.models.robot {
             viewer = viewer.with_robot(model);
         }
-        if let Some(scene) = &models.scene {
+        if let Some(scene) = &self.models.scene {
             viewer = viewer.with_static_bodies(scene);
         }
-        let mut converted = Vec::new();
-        let mut full = AlignedBuf::new();
-        let mut last_flush = clock::monotonic_ns();
-        let mut last_log_time = 0;
-        for job in jobs {
-            match job {
-                Job::Raw {
-                    index,
-                    log_time,
-                    buf,
-                    full_len,
-                } => {
-                    queued.fetch_sub(buf.len(), Ordering::Relaxed);
-                    full.set_padded(buf.bytes(), full_len);
-                    let log_time = clock.of_payload(log_time, full.bytes());
-                    last_log_time = log_time;
-                    if let Some(w) = &mut writer {
-                        w.write_raw_at(index, log_time, full.bytes())?;
-                    }
-                    viewer.recycle(&mut converted);
-                    viewer.convert(names[index], &full, &mut converted);
-                    emit(&converted, live.as_mut(), writer.as_mut(), log_time)?;
-                    let _ = free.send((index, buf));
-                }
-                Job::Metadata(name, entries) => {
-                    if let Some(w) = &mut writer {
-                        w.write_metadata(&name, entries)?
-                    }
-                }
-                Job::Attach {
-                    name,
-                    media_type,
-                    data,
-                    time,
-                } => {
-                    if let Some(w) = &mut writer {
-                        w.attach(&name, media_type, &data, clock.of_event(time))?
-                    }
-                }
-            }
+        Some(Pump {
+            writer: self.writer,
+            live,
+            viewer,
+            converted: Vec::new(),
+            full: AlignedBuf::new(),
+            intake: self.intake,
+            last_flush: clock::monotonic_ns(),
+            last_log_time: 0,
+        })
+    }
+}
+
+/// The writing under way: the file, the live view and the viewer conversion, and the
+/// queue they take jobs from. Made in the writer thread and handed back to the node
+/// thread at the end ([`WriterThread::finish`]).
+struct Pump<W: std::io::Write + std::io::Seek> {
+    writer: Option<RecordWriter<W>>,
+    live: Option<LiveServer>,
+    viewer: ViewerConverter,
+    /// Viewer messages of the payload being written, reused.
+    converted: Vec<ViewerMessage>,
+    /// The payload being written, padded back to its full length, reused.
+    full: AlignedBuf,
+    intake: Intake,
+    last_flush: u64,
+    last_log_time: u64,
+}
+
+impl<W: std::io::Write + std::io::Seek> Pump<W> {
+    /// Writes jobs until the queue is closed and empty, or, when `handover` is given,
+    /// until it is set.
+    fn run(&mut self, handover: Option<&AtomicBool>) -> Result<(), WriteError> {
+        while let Ok(job) = self.intake.jobs.recv() {
+            self.write(job)?;
             let now = clock::monotonic_ns();
-            if now.saturating_sub(last_flush) >= flush_period_ns {
-                if let Some(w) = &mut writer {
+            if now.saturating_sub(self.last_flush) >= self.intake.flush_period_ns {
+                if let Some(w) = &mut self.writer {
                     w.flush()?;
                 }
-                last_flush = now;
+                self.last_flush = now;
+            }
+            if handover.is_some_and(|h| h.load(Ordering::Acquire)) {
+                break;
             }
         }
-        // The last tick's plot messages, held back until the next tick that never came.
-        viewer.recycle(&mut converted);
-        viewer.finish(&mut converted);
-        emit(&converted, live.as_mut(), writer.as_mut(), last_log_time)?;
-        let live = live.map(LiveServer::finish);
-        let counts = match writer {
+        Ok(())
+    }
+
+    fn write(&mut self, job: Job) -> Result<(), WriteError> {
+        match job {
+            Job::Raw {
+                index,
+                log_time,
+                buf,
+                full_len,
+            } => {
+                self.intake.queued.fetch_sub(buf.len(), Ordering::Relaxed);
+                self.full.set_padded(buf.bytes(), full_len);
+                let log_time = self.intake.clock.of_payload(log_time, self.full.bytes());
+                self.last_log_time = log_time;
+                if let Some(w) = &mut self.writer {
+                    w.write_raw_at(index, log_time, self.full.bytes())?;
+                }
+                self.viewer.recycle(&mut self.converted);
+                self.viewer
+                    .convert(self.intake.names[index], &self.full, &mut self.converted);
+                emit(
+                    &self.converted,
+                    self.live.as_mut(),
+                    self.writer.as_mut(),
+                    log_time,
+                )?;
+                let _ = self.intake.free.send((index, buf));
+            }
+            Job::Metadata(name, entries) => {
+                if let Some(w) = &mut self.writer {
+                    w.write_metadata(&name, entries)?
+                }
+            }
+            Job::Attach {
+                name,
+                media_type,
+                data,
+                time,
+            } => {
+                if let Some(w) = &mut self.writer {
+                    w.attach(&name, media_type, &data, self.intake.clock.of_event(time))?
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Writes the last tick's plot messages (held back until a next tick that never
+    /// came), then finalises the file and closes the live view.
+    fn finish(mut self) -> Result<Written, WriteError> {
+        self.viewer.recycle(&mut self.converted);
+        self.viewer.finish(&mut self.converted);
+        emit(
+            &self.converted,
+            self.live.as_mut(),
+            self.writer.as_mut(),
+            self.last_log_time,
+        )?;
+        let live = self.live.map(LiveServer::finish);
+        let counts = match self.writer {
             Some(w) => w.finish()?.1,
             None => WriteCounts::default(),
         };
@@ -289,6 +371,51 @@ fn emit<W: std::io::Write + std::io::Seek>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::writer::WriterOptions;
+    use std::io::Cursor;
+
+    /// At the end of a run the writer thread stops after the job it is on, and the
+    /// caller writes the rest: nothing queued is lost in the handover.
+    #[test]
+    fn the_jobs_queued_at_the_handover_are_written_by_the_caller() {
+        let (ready, _ready_rx) = mpsc::sync_channel(1);
+        let (jobs, job_rx) = mpsc::channel();
+        let (free, _free_rx) = mpsc::channel();
+        let file = RecordWriter::new(Cursor::new(Vec::new()), WriterOptions::default()).unwrap();
+        let start = WriteLoop {
+            writer: Some(file),
+            live: None,
+            ready,
+            viewer: ViewerOptions::default(),
+            models: ViewerModels::default(),
+            intake: Intake {
+                jobs: job_rx,
+                free,
+                queued: Arc::default(),
+                names: Vec::new(),
+                clock: LogClock::of_mode(aisle_messages::TickMode::Lockstep),
+                flush_period_ns: 0,
+            },
+        };
+        let mut pump = start.start().unwrap();
+        for i in 0..5u8 {
+            let job = Job::Attach {
+                name: format!("file{i}.toml"),
+                media_type: "application/toml",
+                data: vec![i; 100],
+                time: u64::from(i),
+            };
+            jobs.send(job).unwrap();
+        }
+        drop(jobs);
+        pump.run(Some(&AtomicBool::new(true))).unwrap();
+        let attached = |p: &Pump<_>| p.writer.as_ref().unwrap().counts().attachments;
+        assert_eq!(attached(&pump), 1, "handed over after one job");
+        pump.run(None).unwrap();
+        assert_eq!(attached(&pump), 5);
+        let written = pump.finish().unwrap();
+        assert_eq!(written.counts.attachments, 5);
+    }
 
     #[test]
     fn an_output_error_names_the_file_and_leaves_the_recorder_to_its_caller() {
