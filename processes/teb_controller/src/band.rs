@@ -121,17 +121,18 @@ impl Band {
         let mut start = 0.0;
         while k < self.dts.len() {
             let t = self.dts[k];
-            if self.poses.len() < max_poses && steps.splits(start, t) {
+            let (short_below, long_above) = steps.range(start);
+            if self.poses.len() < max_poses && t > long_above {
                 let mid = arc_midpoint(&self.poses[k], &self.poses[k + 1]);
                 self.poses.insert(k + 1, mid);
                 self.dts[k] = 0.5 * t;
                 self.dts.insert(k + 1, 0.5 * t);
                 continue;
             }
-            if steps.is_short(start, t) && self.poses.len() > min_poses && self.dts.len() >= 2 {
+            if t < short_below && self.poses.len() > min_poses && self.dts.len() >= 2 {
                 if k + 1 < self.dts.len() {
                     let merged = t + self.dts[k + 1];
-                    if !steps.splits(start, merged) {
+                    if merged <= long_above {
                         self.poses.remove(k + 1);
                         self.dts[k] = merged;
                         self.dts.remove(k + 1);

@@ -13,7 +13,7 @@ use crate::reference::Reference;
 /// to the minimum number of poses.
 pub(crate) fn resize(band: &mut Band, cfg: &TebConfig) {
     let b = &cfg.band;
-    band.resize(&cfg.band.steps(), b.min_poses, b.max_poses);
+    band.resize(&b.steps(), b.min_poses, b.max_poses);
     ensure_min_poses(band, b.min_poses);
 }
 

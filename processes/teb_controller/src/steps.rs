@@ -33,32 +33,32 @@ impl Steps {
         }
     }
 
-    /// The reference step and its hysteresis for a segment starting `start` seconds
-    /// into the band.
+    /// The durations a segment starting `start` seconds into the band is kept within:
+    /// split above the upper bound (its step plus the hysteresis), merged with a
+    /// neighbour below the lower one (its step less the hysteresis).
     #[inline]
-    pub fn at(&self, start: f64) -> (f64, f64) {
-        if self.fine_time > 0.0 && start > self.fine_time {
+    pub fn range(&self, start: f64) -> (f64, f64) {
+        let (step, hysteresis) = if self.fine_time > 0.0 && start > self.fine_time {
             let grow = start / self.fine_time;
             (self.dt_ref * grow, self.hysteresis * grow)
         } else {
             (self.dt_ref, self.hysteresis)
-        }
+        };
+        (step - hysteresis, step + hysteresis)
     }
 
     /// Whether a segment starting `start` seconds into the band and lasting `t` is to
-    /// be split: longer than its step plus the hysteresis.
+    /// be split.
     #[inline]
     pub fn splits(&self, start: f64, t: f64) -> bool {
-        let (step, hysteresis) = self.at(start);
-        t > step + hysteresis
+        t > self.range(start).1
     }
 
     /// Whether a segment starting `start` seconds into the band and lasting `t` is short
     /// enough to merge with a neighbour.
     #[inline]
     pub fn is_short(&self, start: f64, t: f64) -> bool {
-        let (step, hysteresis) = self.at(start);
-        t < step - hysteresis
+        t < self.range(start).0
     }
 }
 
