@@ -30,4 +30,13 @@ impl Budget {
             },
         }
     }
+
+    /// A hard limit that does not grow: one turn of a search that alternates between
+    /// a request's ends (`both_ends.rs`).
+    pub(crate) fn capped(limit: u32) -> Budget {
+        Budget {
+            limit,
+            per_cell: None,
+        }
+    }
 }

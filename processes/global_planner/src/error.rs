@@ -30,6 +30,8 @@ pub struct PlanStats {
     /// (within its sagitta and sweep cover of an obstacle, `relief.rs`); `None` when it
     /// can.
     pub goal_relief: Option<f64>,
+    /// Whether the path came from the search from the goal's end (`both_ends.rs`).
+    pub from_goal: bool,
 }
 
 /// What was wrong with a request.

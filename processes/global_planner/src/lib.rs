@@ -34,6 +34,7 @@
 
 mod angle;
 mod blocked;
+mod both_ends;
 mod budget;
 mod collision;
 pub mod config;

@@ -269,12 +269,17 @@ impl Stage for PlannerStage {
         })?;
         match &result {
             Ok(plan) => tracing::info!(
-                "global_planner: request {}: {:.2} m in {} poses, {} expansions, {:.1} ms{}{}",
+                "global_planner: request {}: {:.2} m in {} poses, {} expansions, {:.1} ms{}{}{}",
                 req.request_id,
                 plan.stats.path_length,
                 plan.path.len(),
                 plan.stats.expansions,
                 solve_ns as f64 / 1e6,
+                if plan.stats.from_goal {
+                    "; found from the goal's end"
+                } else {
+                    ""
+                },
                 match plan.stats.start_relief {
                     Some(m) => format!("; the start is inside the margin: {m:.3} m kept near it"),
                     None => String::new(),

@@ -22,6 +22,7 @@
 //! Reads no clock: the request carries an expansion budget, and the caller may pass a
 //! stop callback (for a wall deadline) that is asked every few hundred expansions.
 
+use crate::both_ends::{Mirror, Side};
 use crate::budget::Budget;
 use crate::config::PlannerConfig;
 use crate::distance_map::{DistanceMap, EAGER_CELLS};
@@ -73,6 +74,8 @@ pub struct Planner {
     /// The one the last request used.
     heur_last: usize,
     buf: Buffers,
+    /// The search from a request's goal's end (`both_ends.rs`), once one has run.
+    pub(crate) mirror: Option<Box<Mirror>>,
     /// The map with a docking body marked occupied (`docked.rs`), reused.
     pub(crate) dock_scratch: Vec<u8>,
     /// Fill a small map's tables whole (the distances on a rebuild, the heuristic's
@@ -94,6 +97,7 @@ impl Planner {
             heur: Default::default(),
             heur_last: 0,
             buf: Buffers::default(),
+            mirror: None,
             dock_scratch: Vec::new(),
             eager_small_maps: false,
         })
@@ -159,109 +163,102 @@ impl Planner {
         self.plan_below(req, map, f64::INFINITY, should_stop)
     }
 
-    /// Like [`Planner::plan_with_stop`], with a search cost the path must stay below:
-    /// [`PlanErrorKind::AboveBound`] as soon as no cheaper path can be left.
-    pub(crate) fn plan_below(
+    /// A turn of a search of `req`: its first, or on from where `side`'s progress
+    /// stopped, up to `cap` expansions in all (none: the request's growing budget).
+    /// `Side::Goal` searches with the mirror's own buffers and heuristic, so that the
+    /// search from the start keeps its own. The stats are the search's so far.
+    pub(crate) fn turn(
         &mut self,
         req: &PlanRequest,
         map: &GridView,
         bound: f64,
+        cap: Option<u32>,
+        mut side: Side<'_>,
         should_stop: &mut dyn FnMut() -> bool,
     ) -> Result<Plan, PlanError> {
-        let mut stats = PlanStats::default();
-        match self.plan_phases(req, map, bound, should_stop, &mut stats) {
+        let outcome = self.plan_phases(req, map, bound, cap, &mut side, should_stop);
+        let stats = side.progress().stats;
+        match outcome {
             Ok(path) => Ok(Plan { path, stats }),
             Err(kind) => Err(PlanError { kind, stats }),
         }
     }
 
-    /// The phases of one request: inputs, end poses, heuristic, search, path. `stats`
-    /// keeps what they did, also when one of them fails.
+    /// The phases of one request: inputs, end poses, heuristic, search, path. The
+    /// progress's stats keep what they did, also when one of them fails; a search that
+    /// has started goes on from where it stopped.
     fn plan_phases(
         &mut self,
         req: &PlanRequest,
         map: &GridView,
         bound: f64,
+        cap: Option<u32>,
+        side: &mut Side<'_>,
         should_stop: &mut dyn FnMut() -> bool,
-        stats: &mut PlanStats,
     ) -> Result<Vec<PathPose>, PlanErrorKind> {
         check_input(req, map).map_err(PlanErrorKind::InvalidInput)?;
         let grid = SearchGrid::new(map, self.cfg.search_resolution, self.model.bins)
             .ok_or(PlanErrorKind::InvalidInput(InvalidInput::TooManyStates))?;
         let start = Pose2::new(req.start.x, req.start.y, wrap_angle(req.start.theta));
         let goal = Pose2::new(req.goal.x, req.goal.y, wrap_angle(req.goal.theta));
-        stats.map_rebuilt = self.ensure_tables(map);
+        let rebuilt = self.ensure_tables(map);
         self.dm.motions.get_mut().begin_request();
 
         let cfg = &self.cfg;
         let model = &self.model;
-        // The search keeps a little more clearance than the output needs: output poses are
-        // joined by straight interpolation, which leaves the arcs by at most the sagitta.
-        let sagitta = cfg.validation_distance.powi(2) / (8.0 * model.radius) + 1e-3;
-        let (x0, y0, x1, y1) = map.bounds();
-        let on_map = |p: &Pose2| p.x >= x0 && p.x <= x1 && p.y >= y0 && p.y <= y1;
-        if !on_map(&start) {
-            return Err(PlanErrorKind::StartOutsideMap);
-        }
-        if !on_map(&goal) {
-            return Err(PlanErrorKind::GoalOutsideMap);
-        }
-        let sizes = relief::Sizes {
-            footprint: req.footprint,
-            margin: req.margin,
-            sagitta,
-            cover: cfg.sweep_cover,
-            radius: cfg.start_relief_radius,
+        let sizes = end_sizes(cfg, model, req, map, &start, &goal)?;
+        let progress = side.progress();
+        progress.stats.map_rebuilt |= rebuilt;
+        let (checker, output, radius) =
+            request_checks(&self.dm, &sizes, &start, &goal, &mut progress.stats)?;
+        let (heur, buf, progress) = match side {
+            Side::Start(progress) => {
+                let k = heuristic_for(&self.heur, &mut self.heur_last, radius);
+                (&mut self.heur[k], &mut self.buf, &mut **progress)
+            }
+            Side::Goal(m) => (&mut m.heur, &mut m.buf, &mut m.progress),
         };
-        let (checker, output, radius) = request_checks(&self.dm, &sizes, &start, &goal, stats)?;
+        let stats = &mut progress.stats;
+        // A relieved end is searched from the start alone (`both_ends.rs`): no turns.
+        let cap = cap.filter(|_| stats.start_relief.is_none() && stats.goal_relief.is_none());
         // The heuristic's backward search runs as far as the queries need (and on to
         // its end to count the cells the goal can be reached from once the request's
         // own budget is spent); the reference fills a small map whole up front.
         let eager = map.width * map.height <= EAGER_CELLS && self.eager_small_maps;
         let ends = ((goal.x, goal.y), (start.x, start.y));
-        let k = heuristic_for(&self.heur, &mut self.heur_last, radius);
-        let heur = &mut self.heur[k];
         let reached = heur.begin(&self.dm, radius, cfg.heuristic_resolution, ends, eager);
         let h_start = reached.then(|| heur.metres(&self.dm, start.x, start.y));
         stats.heuristic_cells = heur.settled;
         let h_start = h_start.flatten().ok_or(PlanErrorKind::NoPath)?;
 
         let per_cell = cfg.expansions_per_reachable_cell;
-        let budget = Budget::new(req.max_expansions, per_cell, eager.then_some(heur.settled));
-        // A node is past the bound when its `g + h_grid` is. The grid distance may
-        // exceed a real path's length by its cells' quantisation, and then by up to
-        // GRID_OVERESTIMATE off the axes and diagonals: plain A*, whose path is the
-        // cheapest, widens the bound by both, so that what it cuts costs more. A
-        // weighted search's paths are only within its weight of the cheapest, and the
-        // factor would leave its bound nearly nothing to cut (a side below 0.8 x the
-        // cheapest cost 2.4 x the expansions of an unbounded search): it widens by the
-        // quantisation alone, and may cut a side up to 7.7 % cheaper than the best so
-        // far, the order of its weight's own loss.
-        let overestimate = if cfg.heuristic_weight == 1.0 {
-            GRID_OVERESTIMATE
-        } else {
-            1.0
+        let budget = match cap {
+            Some(cap) => Budget::capped(cap),
+            None => Budget::new(req.max_expansions, per_cell, eager.then_some(heur.settled)),
         };
-        let bound = overestimate * (bound + heur.quantisation() * model.min_cost_per_metre);
+        let bound = search_bound(cfg, model, heur, bound);
         let mut search = Search {
             cfg,
             model,
             grid,
             dm: &self.dm,
-            heur,
+            heur: &mut *heur,
             budget,
             checker,
             goal,
             bound,
-            buf: &mut self.buf,
+            buf: &mut *buf,
             stats: &mut *stats,
         };
-        search.open_start(start, h_start);
-        let outcome = search.run(should_stop);
-        stats.heuristic_cells = self.heur[k].settled;
+        if !progress.started {
+            search.open_start(start, h_start);
+            progress.started = true;
+        }
+        let outcome = search.run(&mut progress.run, should_stop);
+        let stats = &mut progress.stats;
+        stats.heuristic_cells = heur.settled;
         let (last, shot) = outcome?;
 
-        let buf = &mut self.buf;
         stats.path_cost = buf.nodes[last].g + shot.cost;
         let rotate_step =
             (cfg.validation_distance / output.full_checker().circumscribed_radius()).min(0.2);
@@ -272,6 +269,54 @@ impl Planner {
         buf.raw[0].pose = start;
         output_path(cfg, model.radius, &output, buf, stats)
     }
+}
+
+/// The poses' clearances for a request whose ends lie on the map.
+fn end_sizes(
+    cfg: &PlannerConfig,
+    model: &Model,
+    req: &PlanRequest,
+    map: &GridView,
+    start: &Pose2,
+    goal: &Pose2,
+) -> Result<relief::Sizes, PlanErrorKind> {
+    // The search keeps a little more clearance than the output needs: output poses are
+    // joined by straight interpolation, which leaves the arcs by at most the sagitta.
+    let sagitta = cfg.validation_distance.powi(2) / (8.0 * model.radius) + 1e-3;
+    let (x0, y0, x1, y1) = map.bounds();
+    let on_map = |p: &Pose2| p.x >= x0 && p.x <= x1 && p.y >= y0 && p.y <= y1;
+    if !on_map(start) {
+        return Err(PlanErrorKind::StartOutsideMap);
+    }
+    if !on_map(goal) {
+        return Err(PlanErrorKind::GoalOutsideMap);
+    }
+    Ok(relief::Sizes {
+        footprint: req.footprint,
+        margin: req.margin,
+        sagitta,
+        cover: cfg.sweep_cover,
+        radius: cfg.start_relief_radius,
+    })
+}
+
+/// The search's bound on `g + h_grid` for a caller's `bound` on the path's cost.
+fn search_bound(cfg: &PlannerConfig, model: &Model, heur: &GridHeuristic, bound: f64) -> f64 {
+    // A node is past the bound when its `g + h_grid` is. The grid distance may exceed a
+    // real path's length by its cells' quantisation, and then by up to
+    // GRID_OVERESTIMATE off the axes and diagonals: plain A*, whose path is the
+    // cheapest, widens the bound by both, so that what it cuts costs more. A weighted
+    // search's paths are only within its weight of the cheapest, and the factor would
+    // leave its bound nearly nothing to cut (a side below 0.8 x the cheapest cost 2.4 x
+    // the expansions of an unbounded search): it widens by the quantisation alone, and
+    // may cut a side up to 7.7 % cheaper than the best so far, the order of its weight's
+    // own loss.
+    let overestimate = if cfg.heuristic_weight == 1.0 {
+        GRID_OVERESTIMATE
+    } else {
+        1.0
+    };
+    overestimate * (bound + heur.quantisation() * model.min_cost_per_metre)
 }
 
 /// The search's and the output's checks for a request (relieved near a start or a goal

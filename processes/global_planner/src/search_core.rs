@@ -56,6 +56,17 @@ pub(crate) struct Search<'a> {
     pub(crate) stats: &'a mut PlanStats,
 }
 
+/// What the search's loop carries from one run to the next (`both_ends.rs` resumes a
+/// search that ran out of its turn's budget).
+#[derive(Debug, Default, Clone, Copy)]
+pub(crate) struct RunState {
+    /// Expansions since the last analytic connection was tried.
+    since_shot: u32,
+    /// Whether a node was set aside for the bound: an empty open list then means that
+    /// no path within the bound is left, not that there is none.
+    beyond: bool,
+}
+
 impl Search<'_> {
     /// Clears the buffers and puts the start node on the open list.
     pub(crate) fn open_start(&mut self, start: Pose2, h_start: f64) {
@@ -79,18 +90,21 @@ impl Search<'_> {
     }
 
     /// Expands nodes in order of f until an analytic expansion reaches the goal; returns
-    /// the node it left from and the shot.
+    /// the node it left from and the shot. A search that ran out of budget may be run
+    /// again with a larger one and the same `state`: it goes on where it stopped.
     pub(crate) fn run(
         &mut self,
+        state: &mut RunState,
         should_stop: &mut dyn FnMut() -> bool,
     ) -> Result<(usize, Shot), PlanErrorKind> {
-        let mut since_shot = 0u32;
-        // Whether a node was set aside for the bound: an empty open list then means
-        // that no path within the bound is left, not that there is none.
-        let mut beyond = false;
         loop {
+            // Judged before a node is popped, so that nothing is lost when the search
+            // is resumed.
+            if self.stats.expansions >= self.budget.limit && !self.grow_budget() {
+                return Err(PlanErrorKind::BudgetExhausted);
+            }
             let Some(ni) = self.next_node() else {
-                return Err(if beyond {
+                return Err(if state.beyond {
                     PlanErrorKind::AboveBound
                 } else {
                     PlanErrorKind::NoPath
@@ -99,7 +113,7 @@ impl Search<'_> {
             let n = &self.buf.nodes[ni];
             if n.g + n.h_grid > self.bound {
                 if self.cfg.heuristic_weight != 1.0 {
-                    beyond = true;
+                    state.beyond = true;
                     continue;
                 }
                 if self.all_above_bound() {
@@ -108,7 +122,7 @@ impl Search<'_> {
             }
             self.close(ni, should_stop)?;
             let node = self.buf.nodes[ni];
-            if self.shot_due(&node, &mut since_shot)
+            if self.shot_due(&node, &mut state.since_shot)
                 && let Some(shot) = self.analytic_expansion(&node)
             {
                 return Ok((ni, shot));
@@ -181,17 +195,14 @@ impl Search<'_> {
         true
     }
 
-    /// Counts the expansion of node `ni` and closes it, unless the budget is spent or
-    /// the caller (asked every `stop_check_interval` expansions) wants to stop.
+    /// Counts the expansion of node `ni` and closes it, unless the caller (asked every
+    /// `stop_check_interval` expansions) wants to stop.
     #[inline]
     pub(crate) fn close(
         &mut self,
         ni: usize,
         should_stop: &mut dyn FnMut() -> bool,
     ) -> Result<(), PlanErrorKind> {
-        if self.stats.expansions >= self.budget.limit && !self.grow_budget() {
-            return Err(PlanErrorKind::BudgetExhausted);
-        }
         let stats = &mut *self.stats;
         let interval = self.cfg.stop_check_interval;
         if stats.expansions > 0 && stats.expansions.is_multiple_of(interval) && should_stop() {

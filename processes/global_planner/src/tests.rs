@@ -613,6 +613,7 @@ pub(crate) fn stream(mut seed: u64) -> impl FnMut(i64) -> i64 {
     }
 }
 
+mod both_ends;
 mod bound;
 mod goal_wall;
 mod golden;
