@@ -5,7 +5,7 @@
 
 use aisle_geometry::Pose2;
 use aisle_global_planner::seed_map::{
-    ROBOT, ROBOT_MARGIN, Rect, rasterise, seed_map, seed_segments,
+    ROBOT, ROBOT_MARGIN, Rect, dead_end_park, rasterise, seed_map, seed_segments,
 };
 use aisle_global_planner::{PlanErrorKind, PlanRequest, Planner, PlannerConfig};
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -78,7 +78,12 @@ fn exhausted_budget(c: &mut Criterion) {
         ],
     );
     let view = map.view();
-    let mut planner = Planner::new(PlannerConfig::default()).expect("valid");
+    // One search's cost per expansion: no turns with a search from the goal's end.
+    let mut planner = Planner::new(PlannerConfig {
+        goal_end_after: 0,
+        ..PlannerConfig::default()
+    })
+    .expect("valid");
     let req = PlanRequest {
         start: Pose2::new(0.0, 0.0, 0.0),
         goal: Pose2::new(0.0, 5.42, 0.0),
@@ -99,5 +104,37 @@ fn exhausted_budget(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, segments, exhausted_budget);
+/// A park whose goal faces out of a dead-end aisle (`both_ends.rs`): with the search
+/// from the goal's end taking turns (the shipped config), and from the start alone.
+fn dead_end(c: &mut Criterion) {
+    let (map, park) = dead_end_park();
+    let view = map.view();
+    let req = PlanRequest {
+        start: park.start,
+        goal: park.goal,
+        footprint: park.footprint,
+        margin: park.margin,
+        max_expansions: BUDGET,
+    };
+    let mut g = c.benchmark_group("hybrid_astar");
+    g.sample_size(10);
+    for (name, goal_end_after) in [("both_ends", 4096), ("start_only", 0)] {
+        let mut planner = Planner::new(PlannerConfig {
+            goal_end_after,
+            ..PlannerConfig::default()
+        })
+        .expect("valid");
+        let plan = planner.plan(&req, &view).expect("the park plans");
+        println!(
+            "{name}: {} expansions, cost {:.2}, from the goal's end: {}",
+            plan.stats.expansions, plan.stats.path_cost, plan.stats.from_goal
+        );
+        g.bench_function(format!("dead_end_park/{name}"), |b| {
+            b.iter(|| black_box(planner.plan(black_box(&req), &view).is_ok()))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, segments, exhausted_budget, dead_end);
 criterion_main!(benches);

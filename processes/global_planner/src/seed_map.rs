@@ -123,6 +123,33 @@ pub fn seed_segments() -> [Segment; 3] {
     ]
 }
 
+/// A 10 x 20 m hall at 20 cells/m and a park in it whose goal faces out of a dead end:
+/// aisle A (x 0.5-3) and the dead-end aisle B (x 5-6.8, too narrow for a U-turn on arcs
+/// of 1 m) joined across the top (y above 16); from A, the robot can reach the goal in B
+/// only by turning on the spot at its end or reversing down B (`both_ends.rs`).
+pub fn dead_end_park() -> (GridMap, Segment) {
+    let mut map = GridMap::new_free(0.0, 0.0, 0.05, 10.0, 20.0).expect("valid grid");
+    rasterise(
+        &mut map,
+        &[
+            Rect::new(0.0, 0.0, 10.0, 0.5),
+            Rect::new(0.0, 19.5, 10.0, 20.0),
+            Rect::new(0.0, 0.0, 0.5, 20.0),
+            Rect::new(9.5, 0.0, 10.0, 20.0),
+            Rect::new(3.0, 0.0, 5.0, 16.0),
+            Rect::new(6.8, 0.0, 10.0, 16.0),
+        ],
+    );
+    let park = Segment {
+        name: "dead_end_park",
+        start: Pose2::new(1.75, 3.0, FRAC_PI_2),
+        goal: Pose2::new(5.9, 4.0, FRAC_PI_2),
+        footprint: ROBOT,
+        margin: ROBOT_MARGIN,
+    };
+    (map, park)
+}
+
 /// Rasterises a scene's static bodies into a map of the seed's extent, for tests and
 /// benchmarks against the real scene file: every part of a static body that reaches into
 /// the height limits [0, 5] m marks the cells its (possibly rotated) rectangle overlaps,

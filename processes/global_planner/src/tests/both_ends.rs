@@ -3,43 +3,15 @@
 //! the goal (or reverse the aisle's length). The heuristic does not see the turn, and the
 //! search from the start expands every heading within its cost of the shortest way.
 
-use super::{BUDGET, check_plan};
-use crate::seed_map::{ROBOT, ROBOT_MARGIN, Rect, rasterise};
+use super::check_plan;
 use crate::{PlanRequest, Planner, PlannerConfig, seed_map};
 use aisle_geometry::{GridMap, Pose2, wrap_angle};
 use std::f64::consts::{FRAC_PI_2, PI};
 
-/// A 10 x 20 m hall: aisle A (x 0.5-3) and the dead-end aisle B (x 5-6.8, too narrow for
-/// a U-turn on arcs of 1 m) joined across the top (y above 16).
-fn aisles() -> GridMap {
-    let mut map = GridMap::new_free(0.0, 0.0, 0.05, 10.0, 20.0).unwrap();
-    rasterise(
-        &mut map,
-        &[
-            Rect::new(0.0, 0.0, 10.0, 0.5),
-            Rect::new(0.0, 19.5, 10.0, 20.0),
-            Rect::new(0.0, 0.0, 0.5, 20.0),
-            Rect::new(9.5, 0.0, 10.0, 20.0),
-            Rect::new(3.0, 0.0, 5.0, 16.0),
-            Rect::new(6.8, 0.0, 10.0, 16.0),
-        ],
-    );
-    map
-}
-
-fn park() -> PlanRequest {
-    PlanRequest {
-        start: Pose2::new(1.75, 3.0, FRAC_PI_2),
-        goal: Pose2::new(5.9, 4.0, FRAC_PI_2),
-        footprint: ROBOT,
-        margin: ROBOT_MARGIN,
-        max_expansions: BUDGET,
-    }
-}
-
 #[test]
 fn a_park_facing_out_of_a_dead_end_is_found_from_the_goal() {
-    from_the_goal_for_less(&aisles(), &park());
+    let (hall, park) = seed_map::dead_end_park();
+    from_the_goal_for_less(&hall, &super::request(&park));
     // The seed's aisle between the racks at x 5.5-8.5, facing out of its closed end.
     from_the_goal_for_less(&seed_map::seed_map(10.0), &super::hard_request());
 }
@@ -81,8 +53,8 @@ fn from_the_goal_for_less(map: &GridMap, req: &PlanRequest) {
 fn the_mirrored_request_is_the_same_problem() {
     // Planned the other way round (from the park out of the dead end), the cost is the
     // one of the request read backwards, within the weighted search's factor.
-    let map = aisles();
-    let req = park();
+    let (map, park) = seed_map::dead_end_park();
+    let req = super::request(&park);
     let out = PlanRequest {
         start: Pose2::new(req.goal.x, req.goal.y, -FRAC_PI_2),
         goal: Pose2::new(req.start.x, req.start.y, -FRAC_PI_2),
