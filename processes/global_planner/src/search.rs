@@ -201,8 +201,13 @@ impl Planner {
             .ok_or(PlanErrorKind::InvalidInput(InvalidInput::TooManyStates))?;
         let start = Pose2::new(req.start.x, req.start.y, wrap_angle(req.start.theta));
         let goal = Pose2::new(req.goal.x, req.goal.y, wrap_angle(req.goal.theta));
-        let rebuilt = self.ensure_tables(map);
-        self.dm.motions.get_mut().begin_request();
+        // Once a request, in its first turn: the map's comparison with the kept copy
+        // reads every cell (about 1 ms on a 100 x 200 m map at 20 cells/m).
+        let first_turn = matches!(side, Side::Start(p) if !p.started);
+        let rebuilt = first_turn && self.ensure_tables(map);
+        if first_turn {
+            self.dm.motions.get_mut().begin_request();
+        }
 
         let cfg = &self.cfg;
         let model = &self.model;
