@@ -168,14 +168,19 @@ impl Planner {
         let mut tight = problem.cfg.clone();
         tight.solver.tolerance = 1e-9;
         tight.solver.relative_tolerance = 1e-7;
+        tight.solver.max_qp_iterations = tight.solver.max_qp_iterations.max(100);
         let problem = Problem {
             cfg: &tight,
             ..*problem
         };
         self.alt.copy_from(&self.band);
-        self.scp
+        self.scp.set_exact_subproblems(true);
+        let merit = self
+            .scp
             .optimise(&problem, &mut self.alt, max_subproblems, 1.0)
-            .merit
+            .merit;
+        self.scp.set_exact_subproblems(false);
+        merit
     }
 
     /// Homotopy: the same band pushed around the blocker on the other side and

@@ -25,7 +25,7 @@ use crate::direction::DriveSign;
 use crate::kinematics::Projector;
 use crate::objective::segment::{d_at, kinematic_residual};
 use crate::objective::{self, Problem, Shortfall};
-use crate::qp::Qp;
+use crate::qp::{self, Qp};
 use crate::trust_region::TrustRegion;
 
 /// What one optimisation did.
@@ -244,6 +244,12 @@ impl Scp {
     fn build(&mut self, p: &Problem, band: &Band, scale: f64) {
         let region = TrustRegion::new(&p.cfg.solver, scale);
         objective::model(&mut self.qp, p, band, &region, &mut self.hits);
+    }
+
+    /// Solves every subproblem to the convergence audit's accuracy ([`qp::EXACT`]) while
+    /// `exact`, else to a step's own ([`qp::SETTINGS`]).
+    pub fn set_exact_subproblems(&mut self, exact: bool) {
+        self.qp.settings = if exact { qp::EXACT } else { qp::SETTINGS };
     }
 
     /// Removes the slip of every segment (see [`Projector`]): for bands whose poses were
