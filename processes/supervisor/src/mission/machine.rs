@@ -114,6 +114,10 @@ pub struct Mission {
     margin_scale: f64,
     /// Where the robot began driving a reduced-margin plan (`backoff.rs`).
     backed_off_at: Option<Pose2>,
+    /// How far from there the leg next asks for its full margin (`backoff.rs`).
+    restore_after_m: f64,
+    /// A plan with the full margin again is under way (`backoff.rs`).
+    restoring: bool,
     /// While set, the leg is on its straight departure to this pose.
     departure: Option<Pose2>,
     /// The controller has a reference path for the current leg.
@@ -144,6 +148,8 @@ impl Mission {
             progress: progress::Progress::default(),
             margin_scale: 1.0,
             backed_off_at: None,
+            restore_after_m: backoff::RESTORE_MARGIN_AFTER_M,
+            restoring: false,
             departure: None,
             has_reference: false,
             failure: None,
@@ -230,6 +236,8 @@ impl Mission {
         self.stage = Stage::Path;
         self.progress.reset(now_s);
         self.reset_margin();
+        self.restore_after_m = backoff::RESTORE_MARGIN_AFTER_M;
+        self.restoring = false;
         let mut actions = Vec::new();
         if let Some(body) = self.spec().carry.clone() {
             self.begin_carrying(&body, pose);

@@ -4,7 +4,9 @@
 //! kept for the rest of the leg it would take the robot past whatever it meets later
 //! (unseen pallets, the rack it is about to pass) within a few centimetres of contact.
 //! So once the robot is clear of where the reduced-margin plan began, the leg plans with
-//! the full margin again; where that fails, it backs off once more from there.
+//! the full margin again; where that fails, it backs off once more from there, and the
+//! distance to the next try doubles (a long narrow passage would otherwise cost a
+//! full-margin search, often one that spends the planner's whole budget, every metre).
 //!
 //! Part of the pure state machine: no bus, no clocks.
 
@@ -13,10 +15,14 @@ use crate::mission::events::Action;
 use aisle_geometry::Pose2;
 
 /// How far, m, the robot gets from where a reduced-margin plan started before the leg
-/// asks for a plan with the full margin again: about two robot lengths, enough to leave
-/// the spot that needed the reduction, short enough that nothing met later is passed
-/// with it.
-const RESTORE_MARGIN_AFTER_M: f64 = 1.0;
+/// first asks for a plan with the full margin again: about two robot lengths, enough to
+/// leave the spot that needed the reduction, short enough that nothing met later is
+/// passed with it.
+pub(super) const RESTORE_MARGIN_AFTER_M: f64 = 1.0;
+
+/// The longest the distance to the next full-margin try grows to, m, after tries that
+/// backed off again.
+const RESTORE_MARGIN_AFTER_MAX_M: f64 = 4.0;
 
 /// The least margin backing off ever plans with when the leg's margin is `m` (what the
 /// mission check holds a goal to).
@@ -34,9 +40,17 @@ pub(super) fn scaled_margin(m: f64, scale: f64) -> f64 {
 }
 
 impl Mission {
-    /// A plan with a reduced margin is about to be driven from `pose`.
+    /// A plan with a reduced margin (or the full one) is about to be driven from `pose`.
+    /// A full-margin try that ended backed off again doubles the distance to the next;
+    /// one that kept the full margin makes it short again.
     pub(super) fn note_backed_off(&mut self, pose: Pose2) {
-        self.backed_off_at = (self.margin_scale < 1.0).then_some(pose);
+        let reduced = self.margin_scale < 1.0;
+        if std::mem::take(&mut self.restoring) && reduced {
+            self.restore_after_m = (2.0 * self.restore_after_m).min(RESTORE_MARGIN_AFTER_MAX_M);
+        } else if !reduced {
+            self.restore_after_m = RESTORE_MARGIN_AFTER_M;
+        }
+        self.backed_off_at = reduced.then_some(pose);
     }
 
     /// The full margin again, from now on.
@@ -51,11 +65,12 @@ impl Mission {
     pub(super) fn restore_margin(&mut self, now_s: f64, pose: Pose2) -> Option<Vec<Action>> {
         let from = self.backed_off_at?;
         if !matches!(self.stage, Stage::Path | Stage::ToDock { .. })
-            || pose.distance(&from) < RESTORE_MARGIN_AFTER_M
+            || pose.distance(&from) < self.restore_after_m
         {
             return None;
         }
         self.reset_margin();
+        self.restoring = true;
         tracing::info!("t = {now_s:.1} s: clear of the tight spot: planning with the full margin");
         self.phase = Phase::Planning;
         Some(vec![self.plan_action(pose, true)])

@@ -496,6 +496,45 @@ fn a_reduced_margin_lasts_until_the_robot_is_clear_of_the_spot() {
     assert!(m.on_tick(3.0, Pose2::new(2.5, 0.0, 0.0)).is_empty());
 }
 
+#[test]
+fn a_full_margin_try_that_backs_off_again_doubles_the_distance_to_the_next() {
+    let mut m = mission_alone_margin(0.3);
+    let blocked = || PlanFailure {
+        why: "no path exists".into(),
+        margin_bound: true,
+    };
+    let at = |x: f64| Pose2::new(x, 0.0, 0.0);
+    let full =
+        |a: &[Action]| matches!(a, [Action::Plan { margin, .. }] if (margin - 0.3).abs() < 1e-12);
+    m.start_leg(0.0, at(0.0));
+    m.on_plan(0.0, at(0.0), Err(blocked()));
+    m.on_plan(0.1, at(0.0), Ok(Planned::plain(path())));
+    // 1 m on: the full margin is tried, fails, and the leg backs off again from there.
+    assert!(full(&m.on_tick(1.0, at(1.0))));
+    m.on_plan(1.1, at(1.0), Err(blocked()));
+    m.on_plan(1.2, at(1.0), Ok(Planned::plain(path())));
+    // The next try waits for 2 m, then 4 m (and no more).
+    assert!(m.on_tick(2.0, at(2.5)).is_empty());
+    assert!(full(&m.on_tick(2.1, at(3.0))));
+    m.on_plan(2.2, at(3.0), Err(blocked()));
+    m.on_plan(2.3, at(3.0), Ok(Planned::plain(path())));
+    assert!(m.on_tick(3.0, at(6.5)).is_empty());
+    assert!(full(&m.on_tick(3.1, at(7.0))));
+    m.on_plan(3.2, at(7.0), Err(blocked()));
+    m.on_plan(3.3, at(7.0), Ok(Planned::plain(path())));
+    assert!(m.on_tick(4.0, at(10.5)).is_empty());
+    assert!(full(&m.on_tick(4.1, at(11.0))));
+    // A try that keeps the full margin makes the next backing off short again.
+    m.on_plan(4.2, at(11.0), Ok(Planned::plain(path())));
+    let infeasible = ControllerReport { exit_flag: 1, ..OK };
+    // (after the replan's cool-down steps)
+    let replan = (0..10).find(|_| !m.on_controller(4.5, at(11.0), infeasible).is_empty());
+    assert!(replan.is_some());
+    m.on_plan(4.6, at(11.0), Err(blocked()));
+    m.on_plan(4.7, at(11.0), Ok(Planned::plain(path())));
+    assert!(full(&m.on_tick(5.0, at(12.0))));
+}
+
 /// The planner's way out of a rack set down is through a side: the robot turns in place
 /// under it first, then drives straight out, then follows the rest.
 #[test]
