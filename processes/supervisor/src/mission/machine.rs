@@ -309,6 +309,9 @@ impl Mission {
                 vec![self.plan_action(pose, true)]
             }
             Err(PlanFailure { why, .. }) => {
+                if let Some(actions) = self.restore_failed(now_s, pose, &why) {
+                    return actions;
+                }
                 // The anchor stays: a reduced-margin plan the controller still drives
                 // is replaced once the robot is clear (`backoff.rs`).
                 self.margin_scale = 1.0;

@@ -53,6 +53,28 @@ impl Mission {
         self.backed_off_at = reduced.then_some(pose);
     }
 
+    /// A try with the full margin that found no plan with any margin: the reduced-margin
+    /// plan the controller drives is still good, so it is driven on and the next try
+    /// waits twice as far from here. Not a plan failure of the leg: the try was the
+    /// leg's own choice, and a robot that is stuck is found by its replans, its
+    /// progress and its timeout. `None` when no such try was under way.
+    pub(super) fn restore_failed(
+        &mut self,
+        now_s: f64,
+        pose: Pose2,
+        why: &str,
+    ) -> Option<Vec<Action>> {
+        if !std::mem::take(&mut self.restoring) || !self.has_reference {
+            return None;
+        }
+        self.margin_scale = 1.0;
+        self.restore_after_m = (2.0 * self.restore_after_m).min(RESTORE_MARGIN_AFTER_MAX_M);
+        self.backed_off_at = Some(pose);
+        self.phase = Phase::Driving;
+        tracing::info!("t = {now_s:.1} s: {why}; driving on with the reduced margin");
+        Some(Vec::new())
+    }
+
     /// The full margin again, from now on.
     pub(super) fn reset_margin(&mut self) {
         self.margin_scale = 1.0;

@@ -535,6 +535,28 @@ fn a_full_margin_try_that_backs_off_again_doubles_the_distance_to_the_next() {
     assert!(full(&m.on_tick(5.0, at(12.0))));
 }
 
+#[test]
+fn a_full_margin_try_that_finds_no_plan_at_all_drives_on_and_is_no_plan_failure() {
+    let mut m = mission_alone_margin(0.3);
+    let blocked = || PlanFailure {
+        why: "no path exists".into(),
+        margin_bound: true,
+    };
+    let at = |x: f64| Pose2::new(x, 0.0, 0.0);
+    m.start_leg(0.0, at(0.0));
+    m.on_plan(0.0, at(0.0), Err(blocked()));
+    m.on_plan(0.1, at(0.0), Ok(Planned::plain(path())));
+    assert!(!m.on_tick(1.0, at(1.0)).is_empty());
+    // The full margin, half and 3/8 of it: no plan from here.
+    m.on_plan(1.1, at(1.0), Err(blocked()));
+    assert_eq!(m.on_plan(1.2, at(1.0), Err(blocked())), Vec::new());
+    // The reduced plan is driven on; the next try waits for 2 m from here.
+    assert!(m.on_tick(1.3, at(1.1)).is_empty());
+    assert!(m.on_tick(2.0, at(2.9)).is_empty());
+    assert!(!m.on_tick(2.1, at(3.0)).is_empty());
+    assert_eq!(m.plan_failures, 0);
+}
+
 /// The planner's way out of a rack set down is through a side: the robot turns in place
 /// under it first, then drives straight out, then follows the rest.
 #[test]
