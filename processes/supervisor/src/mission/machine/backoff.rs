@@ -46,7 +46,7 @@ impl Mission {
     pub(super) fn note_backed_off(&mut self, pose: Pose2) {
         let reduced = self.margin_scale < 1.0;
         if std::mem::take(&mut self.restoring) && reduced {
-            self.restore_after_m = (2.0 * self.restore_after_m).min(RESTORE_MARGIN_AFTER_MAX_M);
+            self.wait_longer_to_restore();
         } else if !reduced {
             self.restore_after_m = RESTORE_MARGIN_AFTER_M;
         }
@@ -68,11 +68,16 @@ impl Mission {
             return None;
         }
         self.margin_scale = 1.0;
-        self.restore_after_m = (2.0 * self.restore_after_m).min(RESTORE_MARGIN_AFTER_MAX_M);
+        self.wait_longer_to_restore();
         self.backed_off_at = Some(pose);
         self.phase = Phase::Driving;
         tracing::info!("t = {now_s:.1} s: {why}; driving on with the reduced margin");
         Some(Vec::new())
+    }
+
+    /// Doubles the distance to the next full-margin try, up to its most.
+    fn wait_longer_to_restore(&mut self) {
+        self.restore_after_m = (2.0 * self.restore_after_m).min(RESTORE_MARGIN_AFTER_MAX_M);
     }
 
     /// The full margin again, from now on.

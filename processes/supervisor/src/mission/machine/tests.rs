@@ -496,14 +496,21 @@ fn a_reduced_margin_lasts_until_the_robot_is_clear_of_the_spot() {
     assert!(m.on_tick(3.0, Pose2::new(2.5, 0.0, 0.0)).is_empty());
 }
 
+fn no_path_with_this_margin() -> PlanFailure {
+    PlanFailure {
+        why: "no path exists".into(),
+        margin_bound: true,
+    }
+}
+
+fn on_x_axis(x: f64) -> Pose2 {
+    Pose2::new(x, 0.0, 0.0)
+}
+
 #[test]
 fn a_full_margin_try_that_backs_off_again_doubles_the_distance_to_the_next() {
     let mut m = mission_alone_margin(0.3);
-    let blocked = || PlanFailure {
-        why: "no path exists".into(),
-        margin_bound: true,
-    };
-    let at = |x: f64| Pose2::new(x, 0.0, 0.0);
+    let (blocked, at) = (no_path_with_this_margin, on_x_axis);
     let full =
         |a: &[Action]| matches!(a, [Action::Plan { margin, .. }] if (margin - 0.3).abs() < 1e-12);
     m.start_leg(0.0, at(0.0));
@@ -538,11 +545,7 @@ fn a_full_margin_try_that_backs_off_again_doubles_the_distance_to_the_next() {
 #[test]
 fn a_full_margin_try_that_finds_no_plan_at_all_drives_on_and_is_no_plan_failure() {
     let mut m = mission_alone_margin(0.3);
-    let blocked = || PlanFailure {
-        why: "no path exists".into(),
-        margin_bound: true,
-    };
-    let at = |x: f64| Pose2::new(x, 0.0, 0.0);
+    let (blocked, at) = (no_path_with_this_margin, on_x_axis);
     m.start_leg(0.0, at(0.0));
     m.on_plan(0.0, at(0.0), Err(blocked()));
     m.on_plan(0.1, at(0.0), Ok(Planned::plain(path())));
