@@ -1,5 +1,5 @@
 //! What each process of the group cost the machine over its life: peak resident memory,
-//! voluntary and involuntary context switches, minor and major page faults and CPU
+//! memory locked at the end (`lock_memory`, `realtime.toml`), voluntary and involuntary context switches, minor and major page faults and CPU
 //! time, read from `/proc/<pid>/status` and `/proc/<pid>/stat` just before the
 //! supervisor stops the node (a restarted node: its last incarnation only).
 //!
@@ -15,6 +15,10 @@ pub struct ProcessUsage {
     pub pid: u32,
     /// Peak resident set size (`VmHWM`), KiB.
     pub peak_rss_kib: u64,
+    /// Locked memory (`VmLck`) when read, KiB: what the kernel charges against
+    /// RLIMIT_MEMLOCK, whole mappings whether touched or not.
+    #[serde(default)]
+    pub locked_kib: u64,
     pub voluntary_switches: u64,
     pub involuntary_switches: u64,
     pub minor_faults: u64,
@@ -51,6 +55,7 @@ fn parse(name: &str, pid: u32, status: &str, stat: &str, ticks_per_s: f64) -> Op
         process: name.to_string(),
         pid,
         peak_rss_kib: key("VmHWM")?,
+        locked_kib: key("VmLck").unwrap_or(0),
         voluntary_switches: key("voluntary_ctxt_switches")?,
         involuntary_switches: key("nonvoluntary_ctxt_switches")?,
         minor_faults: field(10)?,
@@ -62,9 +67,10 @@ fn parse(name: &str, pid: u32, status: &str, stat: &str, ticks_per_s: f64) -> Op
 /// The table as text, one process a line.
 pub fn format_table(rows: &[ProcessUsage]) -> String {
     let mut out = format!(
-        "{:<16} {:>12} {:>9} {:>11} {:>13} {:>12} {:>12}\n",
+        "{:<16} {:>12} {:>10} {:>9} {:>11} {:>13} {:>12} {:>12}\n",
         "process",
         "peak RSS MiB",
+        "locked MiB",
         "cpu s",
         "vol. switch",
         "invol. switch",
@@ -74,9 +80,10 @@ pub fn format_table(rows: &[ProcessUsage]) -> String {
     for r in rows {
         let _ = writeln!(
             out,
-            "{:<16} {:>12.1} {:>9.2} {:>11} {:>13} {:>12} {:>12}",
+            "{:<16} {:>12.1} {:>10.1} {:>9.2} {:>11} {:>13} {:>12} {:>12}",
             r.process,
             r.peak_rss_kib as f64 / 1024.0,
+            r.locked_kib as f64 / 1024.0,
             r.cpu_s,
             r.voluntary_switches,
             r.involuntary_switches,
@@ -91,7 +98,7 @@ pub fn format_table(rows: &[ProcessUsage]) -> String {
 mod tests {
     use super::*;
 
-    const STATUS: &str = "Name:\taisle\nVmPeak:\t  100 kB\nVmHWM:\t   20480 kB\n\
+    const STATUS: &str = "Name:\taisle\nVmPeak:\t  100 kB\nVmLck:\t  2048 kB\nVmHWM:\t   20480 kB\n\
         voluntary_ctxt_switches:\t17\nnonvoluntary_ctxt_switches:\t3\n";
     // A command name with a space and a parenthesis.
     const STAT: &str = "4242 (ai) sle) S 1 4242 4242 0 -1 4194304 120 0 7 0 250 50 0 0 20 0 3";
@@ -100,6 +107,7 @@ mod tests {
     fn status_and_stat_are_parsed() {
         let u = parse("lidar", 4242, STATUS, STAT, 100.0).unwrap();
         assert_eq!(u.peak_rss_kib, 20480);
+        assert_eq!(u.locked_kib, 2048);
         assert_eq!((u.voluntary_switches, u.involuntary_switches), (17, 3));
         assert_eq!((u.minor_faults, u.major_faults), (120, 7));
         assert_eq!(u.cpu_s, 3.0);

@@ -79,9 +79,6 @@ pub fn apply(o: &Options, forks: Forks) -> Outcome {
     if !o.cpus.is_empty() {
         record(format!("cpus = {:?}", o.cpus), set_affinity(&o.cpus));
     }
-    if o.lock_memory {
-        record("lock_memory = true".into(), lock_memory());
-    }
     if o.prefault_heap_kb > 0 {
         let kb = o.prefault_heap_kb;
         record(format!("prefault_heap_kb = {kb}"), prefault_heap(kb));
@@ -89,6 +86,11 @@ pub fn apply(o: &Options, forks: Forks) -> Outcome {
     if o.prefault_stack_kb > 0 {
         let kb = o.prefault_stack_kb;
         record(format!("prefault_stack_kb = {kb}"), prefault_stack(kb));
+    }
+    // After the prefaults: under a finite limit only what is mapped now is locked, and
+    // the grown heap and stack are what the hot path uses.
+    if o.lock_memory {
+        record("lock_memory = true".into(), super::lock::lock_memory());
     }
     if let Some(us) = o.max_wakeup_latency_us {
         let device = std::path::Path::new(super::wakeup::DEVICE);
@@ -175,32 +177,6 @@ fn set_affinity(cpus: &[usize]) -> Result<(), String> {
     })?;
     let _ = INHERITED.set(before);
     Ok(())
-}
-
-/// Locks every page of the process as it is first touched (`MCL_ONFAULT`): a page in
-/// use is never paged out, and the shared-memory pools are not made resident whole. With
-/// current and future pages populated as they were mapped, a global map's pool (16 MiB
-/// samples, of which a run touches the map's few MB in one or two) made each process
-/// that maps it 0.5-1.4 GiB resident. What the hot path needs resident up front is the
-/// stack and heap prefaults' job. A kernel without `MCL_ONFAULT` (before 4.4) gets the
-/// populating lock.
-fn lock_memory() -> Result<(), String> {
-    let current = libc::MCL_CURRENT | libc::MCL_FUTURE;
-    // SAFETY: mlockall takes flags only.
-    if unsafe { libc::mlockall(current | libc::MCL_ONFAULT) } == 0 {
-        return Ok(());
-    }
-    // SAFETY: as above.
-    if OsError::last_os_error().raw_os_error() == Some(libc::EINVAL)
-        && unsafe { libc::mlockall(current) } == 0
-    {
-        return Ok(());
-    }
-    let e = OsError::last_os_error();
-    let limit = rlimit_text(libc::RLIMIT_MEMLOCK, |v| format!("{} KiB", v / 1024));
-    Err(format!(
-        "mlockall: {e}; needs CAP_IPC_LOCK or an RLIMIT_MEMLOCK above the process's mapped size (it is {limit})"
-    ))
 }
 
 fn set_fifo(priority: u32, forks: Forks) -> Result<(), String> {

@@ -37,8 +37,9 @@ pub struct OptionsFile {
     pub cpus: Option<Vec<usize>>,
     /// SCHED_FIFO priority 1..=99; 0: the normal time-sharing policy.
     pub priority: Option<u32>,
-    /// mlockall(MCL_CURRENT | MCL_FUTURE | MCL_ONFAULT): no page of the process is paged
-    /// out once touched.
+    /// No page of the process is paged out once touched: every page with CAP_IPC_LOCK
+    /// or an unlimited RLIMIT_MEMLOCK, else what fits of what is mapped at startup
+    /// (`lock.rs`).
     pub lock_memory: Option<bool>,
     /// KiB of stack touched once at startup, so the hot path never faults a stack page.
     pub prefault_stack_kb: Option<u32>,

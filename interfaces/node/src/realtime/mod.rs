@@ -1,11 +1,13 @@
 //! Real-time execution options per node (`config/realtime.toml`): [`config`] reads and
 //! checks the file, [`apply`] applies one node's options in its own process and says
-//! once what the OS refused, `wakeup` holds the CPUs' wake-up latency request. The runtime ([`crate::run`]) applies a stage's options
+//! once what the OS refused, `lock` decides what `lock_memory` locks within the OS's
+//! limit, `wakeup` holds the CPUs' wake-up latency request. The runtime ([`crate::run`]) applies a stage's options
 //! after its `start` and before its first cycle; the simulator, the recorder and the
 //! supervisor call [`apply_for`] at the same point of their own loops.
 
 mod apply;
 mod config;
+mod lock;
 mod wakeup;
 
 pub use apply::{
