@@ -54,7 +54,8 @@ pub struct RecorderOptions {
     /// Wall time between flushes (each closes a chunk, so a killed recorder still leaves
     /// a readable prefix).
     pub flush_period: Duration,
-    /// Longest sleep while no data arrives.
+    /// Longest sleep while no data arrives: the sleeps grow from 1 ms to it while passes
+    /// find nothing, and a tick's acknowledgement ends one sooner.
     pub poll_period: Duration,
     /// Finalise once no other process published anything for this long (a recorder
     /// attached to a running group ends with it); `None`: only on a stop request.
@@ -70,7 +71,7 @@ impl Default for RecorderOptions {
             viewer: ViewerOptions::default(),
             queue_bytes: 512 * 1024 * 1024,
             flush_period: Duration::from_secs(1),
-            poll_period: Duration::from_millis(1),
+            poll_period: Duration::from_millis(20),
             idle_stop: None,
             live: None,
         }
