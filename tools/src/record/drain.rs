@@ -173,12 +173,15 @@ fn wait_for_traffic(
             other?;
         }
     }
-    if let Some(job) = job
-        && jobs.send(job).is_err()
-    {
+    if !queue(jobs, job) {
         return Err(NodeError::Protocol("the writer stopped".into()));
     }
     Ok(())
+}
+
+/// Hands a taken sample's copy to the writer; false when the writer has stopped.
+fn queue(jobs: &mpsc::Sender<Job>, job: Option<Job>) -> bool {
+    job.is_none_or(|job| jobs.send(job).is_ok())
 }
 
 /// Passes over every source until one finds nothing (bounded: a publisher that never
@@ -218,11 +221,7 @@ fn drain_sources(
                 break;
             }
             received += 1;
-            if let Some(job) = job
-                && jobs.send(job).is_err()
-            {
-                writer_gone = true;
-            }
+            writer_gone |= !queue(jobs, job);
         }
     }
     if writer_gone {

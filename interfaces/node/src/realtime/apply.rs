@@ -196,20 +196,22 @@ fn set_fifo(priority: u32, forks: Forks) -> Result<(), String> {
     })
 }
 
-/// An rlimit's soft value for a message.
-fn rlimit_text(resource: libc::__rlimit_resource_t, show: fn(u64) -> String) -> String {
+/// An rlimit's soft value (`RLIM_INFINITY` when unlimited); `None` when unreadable.
+pub(super) fn soft_rlimit(resource: libc::__rlimit_resource_t) -> Option<u64> {
     let mut r = libc::rlimit {
         rlim_cur: 0,
         rlim_max: 0,
     };
     // SAFETY: the kernel writes one rlimit into `r`.
-    if unsafe { libc::getrlimit(resource, &mut r) } != 0 {
-        return "unknown".into();
-    }
-    if r.rlim_cur == libc::RLIM_INFINITY {
-        "unlimited".into()
-    } else {
-        show(r.rlim_cur)
+    (unsafe { libc::getrlimit(resource, &mut r) } == 0).then_some(r.rlim_cur)
+}
+
+/// An rlimit's soft value for a message.
+fn rlimit_text(resource: libc::__rlimit_resource_t, show: fn(u64) -> String) -> String {
+    match soft_rlimit(resource) {
+        None => "unknown".into(),
+        Some(libc::RLIM_INFINITY) => "unlimited".into(),
+        Some(v) => show(v),
     }
 }
 
@@ -217,16 +219,7 @@ fn rlimit_text(resource: libc::__rlimit_resource_t, show: fn(u64) -> String) -> 
 /// mapped before the hot path needs them. Refused above [`super::MAX_PREFAULT_STACK_KB`]
 /// or half the stack's rlimit, so it can never overflow the main thread's stack.
 fn prefault_stack(kb: u32) -> Result<(), String> {
-    let mut r = libc::rlimit {
-        rlim_cur: 0,
-        rlim_max: 0,
-    };
-    // SAFETY: the kernel writes one rlimit into `r`.
-    let limit = if unsafe { libc::getrlimit(libc::RLIMIT_STACK, &mut r) } == 0 {
-        r.rlim_cur
-    } else {
-        0
-    };
+    let limit = soft_rlimit(libc::RLIMIT_STACK).unwrap_or(0);
     if kb > super::MAX_PREFAULT_STACK_KB {
         return Err(format!("more than {} KiB", super::MAX_PREFAULT_STACK_KB));
     }

@@ -94,13 +94,7 @@ pub(crate) fn plan(maps: &[Mapping], allowance: u64) -> Vec<Mapping> {
 /// RLIMIT_MEMLOCK's soft value in bytes; `None`: unlimited or unreadable (no check to
 /// plan for).
 fn memlock_limit() -> Option<u64> {
-    let mut r = libc::rlimit {
-        rlim_cur: 0,
-        rlim_max: 0,
-    };
-    // SAFETY: the kernel writes one rlimit into `r`.
-    let ok = unsafe { libc::getrlimit(libc::RLIMIT_MEMLOCK, &mut r) } == 0;
-    (ok && r.rlim_cur != libc::RLIM_INFINITY).then_some(r.rlim_cur)
+    super::apply::soft_rlimit(libc::RLIMIT_MEMLOCK).filter(|&v| v != libc::RLIM_INFINITY)
 }
 
 /// Whether the process holds CAP_IPC_LOCK (locking is then not charged to a limit).
