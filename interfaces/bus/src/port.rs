@@ -107,6 +107,22 @@ impl<M: Message> Publisher<M> {
     /// payload in place, sends it and wakes the subscribers. `fill` must not write past
     /// the message's [`Message::used_len`]. Returns the sequence number of the message.
     pub fn publish(&mut self, stamp: Stamp, fill: impl FnOnce(&mut M)) -> Result<u64, BusError> {
+        let seq = self.publish_quiet(stamp, fill)?;
+        self.wake()?;
+        Ok(seq)
+    }
+
+    /// [`Publisher::publish`] without waking anyone: the message is delivered (a
+    /// subscriber's next receive returns it) but a subscriber asleep in a wait sleeps on
+    /// until [`Publisher::wake`] (or the end of its wait slice). For a node that sends
+    /// several outputs in one cycle: waking a consumer is a system call after which the
+    /// consumer may take the publisher's CPU, mid-cycle, before its other outputs are
+    /// sent (`aisle_node::BusIo` wakes once the cycle is done).
+    pub fn publish_quiet(
+        &mut self,
+        stamp: Stamp,
+        fill: impl FnOnce(&mut M),
+    ) -> Result<u64, BusError> {
         let mut sample = self
             .port
             .loan_uninit()
@@ -139,10 +155,15 @@ impl<M: Message> Publisher<M> {
         sample
             .send()
             .map_err(|e| BusError::service(self.service, e))?;
+        Ok(self.seq)
+    }
+
+    /// Wakes the subscribers waiting on this topic (after [`Publisher::publish_quiet`]).
+    pub fn wake(&self) -> Result<(), BusError> {
         self.notifier
             .notify()
             .map_err(|e| BusError::service(self.service, e))?;
-        Ok(self.seq)
+        Ok(())
     }
 
     /// Connects subscribers that appeared since the last send and hands them the history.

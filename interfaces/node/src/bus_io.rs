@@ -4,6 +4,13 @@
 //! for it; a stage that reads or writes a topic its declaration does not list gets an
 //! error naming the node and the topic. Waits heartbeat and hand the history of this
 //! node's state outputs to subscribers that (re)joined, so no stage has to.
+//!
+//! A cycle's messages are sent as the stage publishes them, but the subscribers asleep
+//! on them are woken once, after the cycle ([`BusIo::wake_subscribers`], which the
+//! runtime calls before it acknowledges, and every wait calls first). Waking is a
+//! system call after which the woken process may take this CPU at once: woken
+//! mid-cycle, a consumer (the controller, 1-8 ms a step) ran before the rest of the
+//! mapper's cycle, which then counted the consumer's step as its own compute time.
 
 use crate::Io;
 use crate::graph::NodeDecl;
@@ -32,6 +39,8 @@ struct OutPort {
     port: Box<dyn Any>,
     /// `update_connections` of the typed publisher (history reaches late subscribers).
     refresh: fn(&dyn Any),
+    /// Wakes the typed publisher's subscribers.
+    wake: fn(&dyn Any) -> Result<(), aisle_bus::BusError>,
 }
 
 pub struct BusIo<'b> {
@@ -42,6 +51,9 @@ pub struct BusIo<'b> {
     heartbeat: RefCell<HeartbeatSender>,
     /// What the heartbeats of waits say: `Starting` until the stage is ready.
     state: Cell<NodeState>,
+    /// Outputs sent since their subscribers were last woken, in the order of their
+    /// first send (capacity: every output, reserved when the ports open).
+    unwoken: RefCell<Vec<usize>>,
 }
 
 struct Opener<'a, 'b> {
@@ -63,6 +75,13 @@ fn connect_port<T: Message>(port: &dyn Any) {
 fn refresh_port<T: Message>(port: &dyn Any) {
     if let Some(p) = port.downcast_ref::<RefCell<Publisher<T>>>() {
         let _ = p.borrow().update_connections();
+    }
+}
+
+fn wake_port<T: Message>(port: &dyn Any) -> Result<(), aisle_bus::BusError> {
+    match port.downcast_ref::<RefCell<Publisher<T>>>() {
+        Some(p) => p.borrow().wake(),
+        None => Ok(()),
     }
 }
 
@@ -92,6 +111,7 @@ impl TopicVisitor for Opener<'_, '_> {
                     } else {
                         |_| {}
                     },
+                    wake: wake_port::<T>,
                 }),
                 Err(e) => self.error = Some(e.into()),
             }
@@ -112,6 +132,7 @@ impl<'b> BusIo<'b> {
             outputs: Vec::new(),
             heartbeat: RefCell::new(bus.heartbeat()?),
             state: Cell::new(NodeState::Starting),
+            unwoken: RefCell::new(Vec::new()),
         };
         let mut opener = Opener {
             bus,
@@ -124,10 +145,12 @@ impl<'b> BusIo<'b> {
         topics::for_each(&mut opener);
         opener.trigger_pass = true;
         topics::visit(trigger, &mut opener);
-        match opener.error {
-            Some(e) => Err(e),
-            None => Ok(io),
+        if let Some(e) = opener.error {
+            return Err(e);
         }
+        let outputs = io.outputs.len();
+        io.unwoken.get_mut().reserve_exact(outputs);
+        Ok(io)
     }
 
     fn undeclared(&self, topic: &str, how: &str) -> NodeError {
@@ -146,11 +169,40 @@ impl<'b> BusIo<'b> {
     }
 
     fn output<T: Message>(&self, topic: Topic<T>) -> Result<&RefCell<Publisher<T>>, NodeError> {
+        self.output_at(topic).map(|(_, p)| p)
+    }
+
+    /// The output port of `topic` and its index in `outputs`.
+    fn output_at<T: Message>(
+        &self,
+        topic: Topic<T>,
+    ) -> Result<(usize, &RefCell<Publisher<T>>), NodeError> {
         self.outputs
             .iter()
-            .find(|o| o.topic == topic.name)
-            .and_then(|o| o.port.downcast_ref::<RefCell<Publisher<T>>>())
+            .enumerate()
+            .find(|(_, o)| o.topic == topic.name)
+            .and_then(|(i, o)| Some((i, o.port.downcast_ref::<RefCell<Publisher<T>>>()?)))
             .ok_or_else(|| self.undeclared(topic.name, "publishes"))
+    }
+
+    /// Wakes the subscribers of every output sent since the last call, in the order the
+    /// outputs were first sent (see the module docs). Every wait calls it first, so a
+    /// stage that publishes and then waits for an answer is never left waiting on a
+    /// message nobody was woken for.
+    pub fn wake_subscribers(&self) -> Result<(), NodeError> {
+        let mut unwoken = self.unwoken.borrow_mut();
+        let mut first_error = None;
+        for &i in unwoken.iter() {
+            let o = &self.outputs[i];
+            if let Err(e) = (o.wake)(o.port.as_ref()) {
+                first_error.get_or_insert(e);
+            }
+        }
+        unwoken.clear();
+        match first_error {
+            Some(e) => Err(e.into()),
+            None => Ok(()),
+        }
     }
 
     /// Heartbeat, connections to new publishers and history hand-over; runs between
@@ -184,6 +236,7 @@ impl<'b> BusIo<'b> {
         newest_only: bool,
     ) -> Result<Received<T>, NodeError> {
         let port = self.input(topic)?;
+        self.wake_subscribers()?;
         loop {
             let (outcome, sample) = port.wait_for(SLICE, |_| true, || self.on_slice())?;
             if let (WaitOutcome::Matched, Some(first)) = (outcome, sample) {
@@ -220,6 +273,7 @@ impl Io for BusIo<'_> {
         timeout: Duration,
         pred: impl FnMut(&T) -> bool,
     ) -> Result<Option<Received<T>>, NodeError> {
+        self.wake_subscribers()?;
         let (outcome, sample) = self
             .input(topic)?
             .wait_for(timeout, pred, || self.on_slice())?;
@@ -235,7 +289,12 @@ impl Io for BusIo<'_> {
         stamp: Stamp,
         fill: impl FnOnce(&mut T),
     ) -> Result<(), NodeError> {
-        self.output(topic)?.borrow_mut().publish(stamp, fill)?;
+        let (i, port) = self.output_at(topic)?;
+        port.borrow_mut().publish_quiet(stamp, fill)?;
+        let mut unwoken = self.unwoken.borrow_mut();
+        if !unwoken.contains(&i) {
+            unwoken.push(i);
+        }
         Ok(())
     }
 
@@ -251,6 +310,7 @@ impl Io for BusIo<'_> {
         timeout: Duration,
     ) -> Result<Option<Received<T>>, NodeError> {
         self.output(topic)?;
+        self.wake_subscribers()?;
         // A subscriber of one's own output, opened only to read its history once.
         let own = self.bus.subscriber(topic)?;
         let (outcome, sample) = own.wait_for(timeout, |_| true, || {})?;
@@ -261,5 +321,80 @@ impl Io for BusIo<'_> {
             newest = s;
         }
         Ok(Some(newest))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Graph;
+    use aisle_bus::Instance;
+    use aisle_messages::{NodeKind, TickMode};
+    use std::path::Path;
+
+    /// The mapper's ports on a fresh instance (as the supervisor's process: the test
+    /// is both ends), and a subscriber of its local map.
+    fn with_mapper_io(
+        test: impl FnOnce(&BusIo<'_>, &aisle_bus::Subscriber<aisle_messages::OccupancyGrid>),
+    ) {
+        let inst = Instance::unique(Path::new("/tmp/aisle-node-tests"));
+        {
+            let (bus, _info) = Bus::create_instance(&inst, 1, TickMode::Lockstep).unwrap();
+            let graph = Graph::shipped();
+            let decl = graph.node(NodeKind::Mapper).unwrap();
+            let io = BusIo::open(&bus, decl, topics::POINT_CLOUD.name).unwrap();
+            let local = bus.subscriber(topics::LOCAL_MAP).unwrap();
+            test(&io, &local);
+        }
+        inst.remove().unwrap();
+    }
+
+    fn names(io: &BusIo<'_>) -> Vec<&'static str> {
+        let unwoken = io.unwoken.borrow();
+        unwoken.iter().map(|&i| io.outputs[i].topic).collect()
+    }
+
+    #[test]
+    fn a_cycle_sends_at_once_and_wakes_each_output_once_after_it_in_the_order_sent() {
+        with_mapper_io(|io, local| {
+            let stamp = |tick| Stamp {
+                tick,
+                ..Stamp::default()
+            };
+            io.publish(topics::LOCAL_MAP, stamp(1), |m| m.version = 1)
+                .unwrap();
+            io.publish(topics::GLOBAL_MAP_CHANGES, stamp(1), |_| {})
+                .unwrap();
+            io.publish(topics::LOCAL_MAP, stamp(2), |m| m.version = 2)
+                .unwrap();
+            // Delivered as sent, before anyone is woken.
+            let versions: Vec<u64> = std::iter::from_fn(|| local.receive().unwrap())
+                .map(|m| m.version)
+                .collect();
+            assert_eq!(versions, [1, 2]);
+            assert_eq!(
+                names(io),
+                [topics::LOCAL_MAP.name, topics::GLOBAL_MAP_CHANGES.name]
+            );
+            io.wake_subscribers().unwrap();
+            assert!(names(io).is_empty());
+        });
+    }
+
+    #[test]
+    fn every_wait_wakes_what_was_sent_before_it_sleeps() {
+        with_mapper_io(|io, _local| {
+            io.publish(topics::LOCAL_MAP, Stamp::default(), |_| {})
+                .unwrap();
+            let got = io
+                .wait_for(topics::MAPPER_CONTROL, Duration::ZERO, |_| true)
+                .unwrap();
+            assert!(got.is_none());
+            assert!(names(io).is_empty(), "wait_for");
+            io.publish(topics::LOCAL_MAP, Stamp::default(), |_| {})
+                .unwrap();
+            assert!(io.retained(topics::LOCAL_MAP, Duration::ZERO).is_ok());
+            assert!(names(io).is_empty(), "retained");
+        });
     }
 }

@@ -41,6 +41,7 @@ pub fn run<S: Stage>(stage: &mut S, args: &NodeArgs) -> Result<(), NodeError> {
         stage.restore(&io, &ctx)?;
     }
     stage.start(&io, &ctx)?;
+    io.wake_subscribers()?;
     // After `start` (its allocations are then pre-faulted and locked with the rest),
     // before the first cycle.
     realtime::apply_for(name, &args.config_dir, &graph, realtime::Forks::Inherit)
@@ -49,15 +50,21 @@ pub fn run<S: Stage>(stage: &mut S, args: &NodeArgs) -> Result<(), NodeError> {
     loop {
         let trigger = io.wait_trigger(S::TRIGGER, S::NEWEST_ONLY)?;
         let timer = StageTimer::start();
-        let cycle = stage.process(&trigger, &io)?;
-        let compute_ns = cycle.compute_ns.unwrap_or_else(|| timer.elapsed_ns());
+        let cycle = stage.process(&trigger, &io);
+        let (elapsed_ns, cpu_ns) = (timer.elapsed_ns(), timer.cpu_ns());
+        // Every output of the cycle is sent; its subscribers are woken now, once the
+        // cycle's time is taken: a consumer woken mid-cycle could take this CPU and its
+        // run would count as this stage's (`bus_io.rs`).
+        io.wake_subscribers()?;
+        let cycle = cycle?;
+        let compute_ns = cycle.compute_ns.unwrap_or(elapsed_ns);
         if let Some(acks) = acks.as_mut() {
             let kind = S::KIND;
             acks.publish(Stamp::of(Message::header(&*trigger)), |m: &mut TickDone| {
                 m.node = kind.code();
                 m.status = cycle.status as u32;
                 m.compute_ns = compute_ns;
-                m.cpu_ns = timer.cpu_ns();
+                m.cpu_ns = cpu_ns;
             })?;
         }
         io.on_slice();
