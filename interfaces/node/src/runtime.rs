@@ -1,6 +1,7 @@
 //! The one loop every stage runs in: join, ports from the graph, restore after a
-//! restart, start, the node's real-time options (`config/realtime.toml`), ready, then wait for the trigger, process, acknowledge, forever
-//! (until SIGINT/SIGTERM, which ends it as `BusError::StopRequested`).
+//! restart, start, the node's real-time options (`config/realtime.toml`), ready, then wait
+//! for the trigger, process, wake the subscribers of what the cycle sent, acknowledge,
+//! forever (until SIGINT/SIGTERM, which ends it as `BusError::StopRequested`).
 
 use crate::graph::{Acknowledges, Graph};
 use crate::{BusIo, RunContext, Stage, realtime};
@@ -55,8 +56,9 @@ pub fn run<S: Stage>(stage: &mut S, args: &NodeArgs) -> Result<(), NodeError> {
         // Every output of the cycle is sent; its subscribers are woken now, once the
         // cycle's time is taken: a consumer woken mid-cycle could take this CPU and its
         // run would count as this stage's (`bus_io.rs`).
-        io.wake_subscribers()?;
+        let woken = io.wake_subscribers();
         let cycle = cycle?;
+        woken?;
         let compute_ns = cycle.compute_ns.unwrap_or(elapsed_ns);
         if let Some(acks) = acks.as_mut() {
             let kind = S::KIND;
