@@ -89,6 +89,10 @@ pub(super) fn drain(
         unanswered: None,
         last_traffic: Instant::now(),
     };
+    // The acknowledgements' source, whose event the idle waits sleep on.
+    let acks_source = taker
+        .tick_done
+        .and_then(|t| sources.iter().find(|(i, _)| *i == t));
     let mut idle_passes = 0u32;
     loop {
         if signals::stop_requested() {
@@ -123,7 +127,7 @@ pub(super) fn drain(
                 return Ok(());
             }
             wait_for_traffic(
-                sources,
+                acks_source,
                 jobs,
                 &mut taker,
                 summary,
@@ -148,16 +152,13 @@ fn idle_wait(idle_passes: u32, options: &RecorderOptions) -> Duration {
 /// before it, and a lockstep tick is answered at once. (A sleep of 1 ms between passes
 /// woke the recorder 1,000 times a second: 6 % of a core in a realtime run.)
 fn wait_for_traffic(
-    sources: &[(usize, Box<dyn RawSource>)],
+    acks_source: Option<&(usize, Box<dyn RawSource>)>,
     jobs: &mpsc::Sender<Job>,
     taker: &mut Taker<'_>,
     summary: &mut RecordSummary,
     period: Duration,
 ) -> Result<(), NodeError> {
-    let Some((i, src)) = taker
-        .tick_done
-        .and_then(|t| sources.iter().find(|(i, _)| *i == t))
-    else {
+    let Some((i, src)) = acks_source else {
         std::thread::sleep(period);
         return Ok(());
     };
