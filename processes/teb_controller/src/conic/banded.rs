@@ -12,6 +12,8 @@ pub(super) struct Banded {
     a: Vec<f64>,
     /// D of the factorisation, then scratch.
     d: Vec<f64>,
+    /// One column of L below its diagonal, while it updates the rest.
+    column: Vec<f64>,
 }
 
 impl Banded {
@@ -23,6 +25,8 @@ impl Banded {
         self.a.resize(n * (self.bw + 1), 0.0);
         self.d.clear();
         self.d.resize(n, 0.0);
+        self.column.clear();
+        self.column.resize(self.bw, 0.0);
     }
 
     /// Sets every entry to zero, keeping the shape.
@@ -54,35 +58,38 @@ impl Banded {
 
     /// Factors in place as L D L'. False when a pivot is not positive (the matrix is
     /// not positive definite to working precision).
+    ///
+    /// Right-looking: once column k is final, every entry it updates is updated at
+    /// once. Entry (i, j) still receives its terms (l_ik l_jk) d_k in increasing k and
+    /// is divided by d_j last, the operations and order of the row-by-row (left-looking)
+    /// form, so the bits are the same; but the updates of one k are independent of
+    /// each other, where the row-by-row sums were chains of dependent subtractions.
     pub fn factor(&mut self) -> bool {
-        let (n, bw, w) = (self.n, self.bw, self.bw + 1);
-        let d = &mut self.d;
-        for j in 0..n {
-            let lo = j.saturating_sub(bw);
-            // Row j (entry (j, j - t) at t) and the rows below it, which it updates.
-            let (head, below) = self.a.split_at_mut((j + 1) * w);
-            let row_j = &head[j * w..];
-            // Sums over k = lo..j in increasing k, so t = j - k runs backwards.
-            let mut dj = row_j[0];
-            for (l, dk) in row_j[1..=j - lo].iter().rev().zip(&d[lo..j]) {
-                dj -= l * l * dk;
-            }
-            if dj.is_nan() || dj <= 0.0 || dj.is_infinite() {
+        let (n, w) = (self.n, self.bw + 1);
+        let Banded { a, d, column, .. } = self;
+        for k in 0..n {
+            let dk = a[k * w];
+            if dk.is_nan() || dk <= 0.0 || dk.is_infinite() {
                 return false;
             }
-            d[j] = dj;
-            for i in j + 1..(j + w).min(n) {
-                let lo_i = i.saturating_sub(bw);
-                let row_i = &mut below[(i - j - 1) * w..(i - j) * w];
-                let mut v = row_i[i - j];
-                let pairs = row_i[i - j + 1..=i - lo_i]
-                    .iter()
-                    .rev()
-                    .zip(row_j[1..=j - lo_i].iter().rev());
-                for ((aik, ajk), dk) in pairs.zip(&d[lo_i..j]) {
-                    v -= aik * ajk * dk;
+            d[k] = dk;
+            let below = (k + w).min(n) - k - 1;
+            // Column k below its diagonal, l_ik for i = k + 1 ..= k + below, kept apart:
+            // each row's update reads all of it.
+            for (t, l) in column[..below].iter_mut().enumerate() {
+                let i = k + 1 + t;
+                let at = i * w + (i - k);
+                a[at] /= dk;
+                *l = a[at];
+            }
+            // Row i's entries (i, j), j = k + 1 ..= i, sit at i w + (i - j): the
+            // slice i w + 0 ..= i w + (i - k - 1), in decreasing j.
+            for (t, &lik) in column[..below].iter().enumerate() {
+                let i = k + 1 + t;
+                let row = &mut a[i * w..i * w + t + 1];
+                for (entry, &ljk) in row.iter_mut().zip(column[..=t].iter().rev()) {
+                    *entry -= lik * ljk * dk;
                 }
-                row_i[i - j] = v / dj;
             }
         }
         true

@@ -85,6 +85,11 @@ pub(crate) struct Conic {
     px: Vec<f64>,
     /// Whether `rx` and `rz` were computed from the iterate, not carried.
     fresh: bool,
+    /// s'z of the iterate the stopping rule last judged.
+    s_z: f64,
+    /// Largest entries of the scaled q and h (constant through a solve).
+    q_norm: f64,
+    h_norm: f64,
     /// Solution of the last successful solve.
     pub x: Vec<f64>,
     /// Interior-point iterations of the last solve.
@@ -127,7 +132,8 @@ impl Conic {
             if !self.scale() || !self.kkt.factor(&self.ray_d, &self.cone_m) {
                 return false;
             }
-            let mu = dot(&self.s, &self.z) / degree;
+            // s'z of this iterate, from the stopping rule just applied to it.
+            let mu = self.s_z / degree;
             self.direction(d.n, Step::Predictor);
             let alpha = self.max_step(1.0);
             let sigma = (1.0 - alpha).powi(3);
@@ -170,6 +176,8 @@ impl Conic {
         self.h.clear();
         self.h
             .extend((0..m).map(|r| self.kkt.row_scale[r] * d.h(r)));
+        self.q_norm = inf_norm(&self.q);
+        self.h_norm = inf_norm(&self.h);
         for v in [
             &mut self.x,
             &mut self.rx,
@@ -261,21 +269,38 @@ impl Conic {
         self.stopping(n, set)
     }
 
-    fn stopping(&self, n: usize, set: &Settings) -> bool {
+    /// Clarabel's rule, with the norms and products over the columns and over the rows
+    /// in one pass each (each sum in index order, as a pass of its own would take it:
+    /// the same bits). Remembers s'z for `solve`.
+    fn stopping(&mut self, n: usize, set: &Settings) -> bool {
         let c = self.cost_scale;
-        let x_px = dot(&self.x, &self.px);
-        let q_x = dot(&self.x, &self.q);
-        let px_norm = inf_norm(&self.px);
-        let h_z = dot(&self.h, &self.z);
-        let (x_norm, s_norm, z_norm) =
-            (inf_norm(&self.x[..n]), inf_norm(&self.s), inf_norm(&self.z));
-        let primal_ok =
-            inf_norm(&self.rz) <= set.tol_feas * (1.0 + inf_norm(&self.h) + x_norm + s_norm);
-        let dual_ok = inf_norm(&self.rx) / c
-            <= set.tol_feas * (1.0 + (inf_norm(&self.q) + px_norm + z_norm) / c);
+        // Sums start at -0.0, as `Iterator::sum` does.
+        let (mut x_px, mut q_x) = (-0.0, -0.0);
+        let (mut px_norm, mut x_norm, mut rx_norm) = (0.0f64, 0.0f64, 0.0f64);
+        let columns = self.x.iter().zip(&self.px).zip(&self.q).zip(&self.rx);
+        for (((&x, &px), &q), &rx) in columns.take(n) {
+            x_px += x * px;
+            q_x += x * q;
+            px_norm = px_norm.max(px.abs());
+            x_norm = x_norm.max(x.abs());
+            rx_norm = rx_norm.max(rx.abs());
+        }
+        let (mut h_z, mut s_z) = (-0.0, -0.0);
+        let (mut s_norm, mut z_norm, mut rz_norm) = (0.0f64, 0.0f64, 0.0f64);
+        let rows = self.s.iter().zip(&self.z).zip(&self.h).zip(&self.rz);
+        for (((&s, &z), &h), &rz) in rows {
+            h_z += h * z;
+            s_z += s * z;
+            s_norm = s_norm.max(s.abs());
+            z_norm = z_norm.max(z.abs());
+            rz_norm = rz_norm.max(rz.abs());
+        }
+        self.s_z = s_z;
+        let primal_ok = rz_norm <= set.tol_feas * (1.0 + self.h_norm + x_norm + s_norm);
+        let dual_ok = rx_norm / c <= set.tol_feas * (1.0 + (self.q_norm + px_norm + z_norm) / c);
         let pobj = (0.5 * x_px + q_x) / c;
         let dobj = (-0.5 * x_px - h_z) / c;
-        let gap = dot(&self.s, &self.z) / c;
+        let gap = s_z / c;
         let gap_ok =
             gap <= set.tol_gap_abs || gap <= set.tol_gap_rel * pobj.abs().min(dobj.abs()).max(1.0);
         primal_ok && dual_ok && gap_ok
@@ -415,10 +440,6 @@ impl Conic {
     pub fn bandwidth(&self) -> usize {
         self.kkt.bandwidth
     }
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 fn inf_norm(v: &[f64]) -> f64 {
