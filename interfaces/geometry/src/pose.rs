@@ -6,7 +6,9 @@ use serde::{Deserialize, Serialize};
 #[inline]
 pub fn wrap_angle(a: f64) -> f64 {
     let two_pi = std::f64::consts::TAU;
-    let mut r = a % two_pi;
+    // `%` is a call to fmod, which returns a within a turn unchanged: most callers
+    // wrap a sum or difference of wrapped angles, and skip the call.
+    let mut r = if a.abs() < two_pi { a } else { a % two_pi };
     if r > std::f64::consts::PI {
         r -= two_pi;
     } else if r <= -std::f64::consts::PI {
@@ -92,6 +94,30 @@ mod tests {
             );
         }
         assert_eq!(wrap_angle(std::f64::consts::PI), std::f64::consts::PI);
+        // The same bits as the remainder it skips, at the ends of a turn and beyond.
+        let tau = std::f64::consts::TAU;
+        for a in [
+            0.0,
+            -0.0,
+            tau.next_down(),
+            -tau.next_down(),
+            tau,
+            -tau,
+            tau.next_up(),
+            1e-300,
+            3.0 * tau + 0.1,
+            -7.5,
+            f64::MAX,
+        ] {
+            let mut r = a % tau;
+            if r > std::f64::consts::PI {
+                r -= tau;
+            } else if r <= -std::f64::consts::PI {
+                r += tau;
+            }
+            assert_eq!(wrap_angle(a).to_bits(), r.to_bits(), "{a}");
+        }
+        assert!(wrap_angle(f64::NAN).is_nan() && wrap_angle(f64::INFINITY).is_nan());
     }
 
     #[test]
