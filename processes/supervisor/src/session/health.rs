@@ -94,6 +94,12 @@ impl NodeHealth {
                 self.restart.link.down_limit_s
             )));
         }
+        // Judged on the heartbeats queued by now, not on the drain above: the restarts
+        // in between may take a while (freeing a dead node's resources, spawning its
+        // successor), and whatever arrived meanwhile is waiting in the queue. Judged on
+        // the first drain, a restart that took 0.27 s declared all four other nodes
+        // hung (realtime timeout 0.2 s) and killed them.
+        self.drain_heartbeats()?;
         self.kill_silent();
         self.stop_for_the_dead()?;
         self.connect_joiners()
