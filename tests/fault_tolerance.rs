@@ -5,23 +5,9 @@
 mod support;
 
 use aisle_supervisor::report::RunReport;
-use std::sync::{OnceLock, RwLock, RwLockReadGuard, RwLockWriteGuard};
+use std::sync::OnceLock;
+use support::machine::{alone, beside};
 use support::*;
-
-/// The realtime run alone, the lockstep runs side by side: lockstep runs keep both
-/// cores busy, and a realtime group starved of them misses its 0.2 s heartbeat
-/// timeouts (one CI run on a slow host declared four nodes hung besides the one
-/// killed), which is not what the test is about.
-static REALTIME_ALONE: RwLock<()> = RwLock::new(());
-
-/// Taken once at the start of each lockstep test (not again inside it).
-fn lockstep() -> RwLockReadGuard<'static, ()> {
-    REALTIME_ALONE.read().unwrap_or_else(|e| e.into_inner())
-}
-
-fn realtime_alone() -> RwLockWriteGuard<'static, ()> {
-    REALTIME_ALONE.write().unwrap_or_else(|e| e.into_inner())
-}
 
 fn undisturbed() -> &'static RunReport {
     static RUN: OnceLock<RunReport> = OnceLock::new();
@@ -52,7 +38,7 @@ fn random_tick(node: &str, ticks: u64) -> u64 {
 }
 
 fn killed_at_random_tick_resumes_exactly(node: &str) {
-    let _shared = lockstep();
+    let _shared = beside();
     let tick = random_tick(node, undisturbed().ticks);
     killed_together_resume_exactly(&[node], tick);
 }
@@ -135,13 +121,13 @@ fn a_killed_controller_resumes_exactly() {
 /// rest of the one before it (so one lost shows in the path; it did, from tick 201).
 #[test]
 fn the_simulator_and_controller_killed_together_resume_exactly() {
-    let _shared = lockstep();
+    let _shared = beside();
     killed_together_resume_exactly(&["simulator", "teb_controller"], 200);
 }
 
 #[test]
 fn realtime_without_its_controller_the_robot_stops_within_0_3_s() {
-    let _alone = realtime_alone();
+    let _alone = alone();
     // Tick 40 is mid-way through the first leg, with the robot at speed.
     let (out, r) = run_report(
         "ft-realtime",

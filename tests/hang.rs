@@ -12,15 +12,8 @@ mod support;
 use std::io::{BufRead, BufReader};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
+use support::machine::alone;
 use support::*;
-
-/// The two runs of this file one at a time: a lockstep run keeps both cores busy,
-/// which would starve the realtime one and blur what it measures.
-static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
-
-fn exclusive() -> std::sync::MutexGuard<'static, ()> {
-    ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner())
-}
 
 /// One SIGSTOP: the node, when (wall seconds after the group is ready), for how long.
 struct Hang {
@@ -113,7 +106,7 @@ fn moved_after(path: &[[f64; 4]], t_s: f64) -> Option<bool> {
 
 #[test]
 fn every_node_type_hung_in_realtime_stops_the_robot_and_is_replaced() {
-    let _one = exclusive();
+    let _one = alone();
     let dir = TestDir::new("hang-realtime");
     let report = dir.path("report.json");
     let args = [
@@ -238,7 +231,7 @@ fn spawn_ready(
 
 #[test]
 fn a_hung_mapper_in_lockstep_is_replaced_and_the_run_is_exact() {
-    let _one = exclusive();
+    let _one = alone();
     let dir = TestDir::new("hang-lockstep");
     let report = dir.path("report.json");
     let (mut child, mut log, lines) = spawn_ready(

@@ -10,6 +10,7 @@
 mod support;
 
 use std::time::Duration;
+use support::machine::{alone, beside};
 use support::netns::{CUT, Hosts, spread_run};
 use support::*;
 
@@ -39,6 +40,7 @@ fn spread_seed(
 #[test]
 fn the_seed_mission_spread_over_two_hosts_drives_the_single_host_path() {
     needs_netns!();
+    let _shared = beside();
     let r = spread_seed("hosts-seed", &[], None);
     assert_eq!(r.collisions, 0);
     let (digest, poses) = seed_baseline();
@@ -49,6 +51,7 @@ fn the_seed_mission_spread_over_two_hosts_drives_the_single_host_path() {
 #[test]
 fn a_host_of_another_schema_is_refused_with_both_hashes() {
     needs_netns!();
+    let _shared = beside();
     let other = "0123456789abcdef";
     let s = spread_run(
         &Hosts::new(2),
@@ -70,6 +73,7 @@ fn a_host_of_another_schema_is_refused_with_both_hashes() {
 #[test]
 fn the_seed_mission_spread_over_two_hosts_runs_in_realtime() {
     needs_netns!();
+    let _alone = alone();
     let r = spread_seed("hosts-rt", &["--realtime"], None);
     assert_eq!(r.collisions, 0);
     let row = |name: &str| {
@@ -94,6 +98,7 @@ fn the_seed_mission_spread_over_two_hosts_runs_in_realtime() {
 #[test]
 fn a_link_cut_for_two_seconds_stops_the_robot_and_the_mission_resumes() {
     needs_netns!();
+    let _alone = alone();
     let r = spread_seed("hosts-cut", &["--realtime"], Some(Duration::from_secs(8)));
     assert_eq!(r.collisions, 0);
     assert_eq!(r.link_outages.len(), 1, "{:?}", r.link_outages);
@@ -113,6 +118,7 @@ fn a_link_cut_for_two_seconds_stops_the_robot_and_the_mission_resumes() {
 #[test]
 fn a_node_killed_on_the_other_host_is_restarted_through_its_daemon() {
     needs_netns!();
+    let _shared = beside();
     // The lidar dies in a tick; the mapper (at 100) after the supervisor told it to
     // ignore the rack it approaches, which its successor over there must be told again.
     for (name, kill) in [("hosts-kill", "lidar@30"), ("hosts-kill-m", "mapper@100")] {
@@ -131,6 +137,7 @@ fn a_node_killed_on_the_other_host_is_restarted_through_its_daemon() {
 #[test]
 fn a_controller_killed_on_the_other_host_gets_its_goal_again() {
     needs_netns!();
+    let _shared = beside();
     let r = spread_seed("hosts-kill-c", &["--kill", "teb_controller@60"], None);
     assert_eq!(r.collisions, 0);
 }

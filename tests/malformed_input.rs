@@ -40,13 +40,13 @@ fn shipped(name: &str) -> &'static [u8] {
     )
 }
 
-/// Writes `bytes` to a scratch file named like `name` (loaders that take a path).
-fn scratch(name: &str, bytes: &[u8]) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("aisle-fuzz-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join(name);
+/// Writes `bytes` to a file named `name` (loaders that take a path) in a private
+/// directory of its own, removed with the returned guard: cases run side by side.
+fn scratch(name: &str, bytes: &[u8]) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join(name);
     std::fs::write(&p, bytes).unwrap();
-    p
+    (dir, p)
 }
 
 fn text(b: &[u8]) -> String {
@@ -54,7 +54,7 @@ fn text(b: &[u8]) -> String {
 }
 
 fn config_parsers(name: &str, bytes: &[u8]) {
-    let p = scratch(name, bytes);
+    let (_dir, p) = scratch(name, bytes);
     let scene = aisle_config::scene::Scene::load(&config_dir().join("warehouse.toml")).unwrap();
     match name {
         "warehouse.toml" => drop(aisle_config::scene::Scene::parse(

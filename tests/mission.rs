@@ -7,6 +7,7 @@ use aisle_config::scene::Scene;
 use aisle_geometry::{Footprint, Pose2};
 use aisle_supervisor::report::RunReport;
 use std::sync::OnceLock;
+use support::machine::{alone, beside};
 use support::*;
 
 /// The seed mission in lockstep, run once for the tests that read it.
@@ -42,6 +43,7 @@ fn mission_goals() -> Vec<Pose2> {
 /// a change that means to change behaviour, and say so).
 #[test]
 fn the_seed_mission_drives_the_baseline_path_to_the_bit() {
+    let _shared = beside();
     let (_, r) = seed_run();
     let (digest, poses) = seed_baseline();
     assert_eq!(r.driven_path.len(), poses);
@@ -50,6 +52,7 @@ fn the_seed_mission_drives_the_baseline_path_to_the_bit() {
 
 #[test]
 fn the_seed_mission_completes_in_lockstep() {
+    let _shared = beside();
     let (out, r) = seed_run();
     assert!(
         out.status.success(),
@@ -97,6 +100,7 @@ fn the_seed_mission_completes_in_lockstep() {
 /// the reference there to go around them.
 #[test]
 fn near_unseen_obstacles_the_robot_leaves_the_reference_path() {
+    let _shared = beside();
     let (_, r) = seed_run();
     assert!(r.success, "{:?}", r.failure);
     let scene = scene();
@@ -153,6 +157,7 @@ fn near_unseen_obstacles_the_robot_leaves_the_reference_path() {
 
 #[test]
 fn two_lockstep_runs_are_identical() {
+    let _shared = beside();
     let (_, first) = seed_run();
     let (_, second) = run_report("seed-again", &[]);
     assert!(!first.driven_path.is_empty());
@@ -167,6 +172,7 @@ fn two_lockstep_runs_are_identical() {
 
 #[test]
 fn without_the_lidar_the_robot_hits_the_unseen_obstacles() {
+    let _shared = beside();
     // Collisions allowed: the demonstration drives the whole mission (without the flag
     // the first collision fails it: tests/bad_input.rs).
     let (_, r) = run_report("no-lidar", &["--no-lidar", "--allow-collisions"]);
@@ -201,6 +207,7 @@ fn pocket() -> String {
 
 #[test]
 fn an_unreachable_goal_fails_the_mission_with_the_robot_stopped() {
+    let _shared = beside();
     let dir = TestDir::new("unreachable");
     let config = config_with_graph(&dir, "");
     let scene = config.join("warehouse.toml");
@@ -246,6 +253,7 @@ fn an_unreachable_goal_fails_the_mission_with_the_robot_stopped() {
 
 #[test]
 fn a_legs_speed_limit_holds_the_robot_below_it() {
+    let _shared = beside();
     let dir = TestDir::new("speed-limit");
     let mission = mission_file(
         &dir,
@@ -268,6 +276,7 @@ fn a_legs_speed_limit_holds_the_robot_below_it() {
 
 #[test]
 fn a_realtime_run_completes_the_mission() {
+    let _alone = alone();
     let (out, r) = run_report("realtime", &["--realtime"]);
     assert!(
         out.status.success(),

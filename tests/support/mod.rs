@@ -4,6 +4,7 @@
 
 #![allow(dead_code)]
 
+pub mod machine;
 pub mod netns;
 pub mod records;
 

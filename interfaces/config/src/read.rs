@@ -72,22 +72,23 @@ fn plain_file(meta: &std::fs::Metadata) -> std::io::Result<()> {
 mod tests {
     use super::*;
 
-    fn scratch(name: &str) -> std::path::PathBuf {
-        let dir = std::env::temp_dir().join(format!("aisle-read-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        dir.join(name)
+    /// A path named `name` in a private directory removed with the returned guard.
+    fn scratch(name: &str) -> (tempfile::TempDir, std::path::PathBuf) {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join(name);
+        (dir, path)
     }
 
     #[test]
     fn a_small_file_is_read_whole() {
-        let p = scratch("small.toml");
+        let (_dir, p) = scratch("small.toml");
         std::fs::write(&p, "rate = 1.0\n").unwrap();
         assert_eq!(read_capped(&p).unwrap(), "rate = 1.0\n");
     }
 
     #[test]
     fn a_file_over_the_limit_is_refused() {
-        let p = scratch("big.toml");
+        let (_dir, p) = scratch("big.toml");
         std::fs::write(&p, vec![b'#'; 101]).unwrap();
         let e = read_capped_with(&p, 100).unwrap_err();
         assert_eq!(e.kind(), std::io::ErrorKind::FileTooLarge);
@@ -100,8 +101,7 @@ mod tests {
         assert!(e.to_string().contains("character device"), "{e}");
         let e = read_capped(&std::env::temp_dir()).unwrap_err();
         assert!(e.to_string().contains("directory"), "{e}");
-        let fifo = scratch("fifo.toml");
-        let _ = std::fs::remove_file(&fifo);
+        let (_dir, fifo) = scratch("fifo.toml");
         let made = std::process::Command::new("mkfifo")
             .arg(&fifo)
             .status()
@@ -115,7 +115,7 @@ mod tests {
 
     #[test]
     fn binary_content_is_refused() {
-        let p = scratch("bin.toml");
+        let (_dir, p) = scratch("bin.toml");
         std::fs::write(&p, [b'a', 0xff, 0xfe]).unwrap();
         assert!(read_capped(&p).unwrap_err().to_string().contains("UTF-8"));
     }

@@ -203,9 +203,8 @@ mod tests {
             from.is_empty() || changed != text,
             "{from} not in mission.toml"
         );
-        let dir = std::env::temp_dir().join(format!("aisle-placement-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join(name);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join(name);
         std::fs::write(&path, changed).unwrap();
         let mission = MissionConfig::load(&path, &f.scene).unwrap();
         let cfg = aisle_config::load::<aisle_mapper::MapConfig>(&shipped("mapper.toml")).unwrap();
