@@ -217,6 +217,9 @@ impl NodeHealth {
                 self.declared_dead.push((kind, 0.0));
             }
             self.hung.retain(|k| *k != kind);
+            // The robot stops now, not after the restart below: freeing the dead node's
+            // resources and spawning its successor took 0.26 s in one realtime run.
+            self.stop_for_the_dead()?;
             match self.restarts.allow(kind, &policy, now_s) {
                 Ok(n) => {
                     tracing::warn!(
