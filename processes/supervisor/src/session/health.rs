@@ -94,13 +94,7 @@ impl NodeHealth {
                 self.restart.link.down_limit_s
             )));
         }
-        // Judged on the heartbeats queued by now, not on the drain above: the restarts
-        // in between may take a while (freeing a dead node's resources, spawning its
-        // successor), and whatever arrived meanwhile is waiting in the queue. Judged on
-        // the first drain, a restart that took 0.27 s declared all four other nodes
-        // hung (realtime timeout 0.2 s) and killed them.
-        self.drain_heartbeats()?;
-        self.kill_silent();
+        self.kill_silent()?;
         self.stop_for_the_dead()?;
         self.connect_joiners()
     }
@@ -124,8 +118,8 @@ impl NodeHealth {
         if let Err(e) = self.watch_links() {
             tracing::error!("could not stop the robot: {e:?}");
         }
-        if self.drain_heartbeats().is_ok() {
-            self.kill_silent();
+        if let Err(e) = self.kill_silent() {
+            tracing::error!("could not read the heartbeats: {e:?}");
         }
         if let Err(e) = self.stop_for_the_dead() {
             tracing::error!("could not stop the robot: {e:?}");
@@ -261,7 +255,14 @@ impl NodeHealth {
     /// Kills every node whose heartbeats stopped (a hang: SIGSTOP, a deadlock, a cycle
     /// that never ends); the next check reaps and restarts it. A ready node gets the
     /// clock mode's timeout, one still starting its start timeout.
-    fn kill_silent(&mut self) {
+    ///
+    /// Judged on the heartbeats queued by now, drained here rather than trusted from
+    /// an earlier drain: a restart in between may take a while (freeing a dead node's
+    /// resources, spawning its successor) and whatever arrived meanwhile waits in the
+    /// queue. Judged on a stale drain, a restart that took 0.27 s declared all four
+    /// other nodes hung (realtime timeout 0.2 s) and killed them.
+    fn kill_silent(&mut self) -> Result<(), RunAborted> {
+        self.drain_heartbeats()?;
         let now = Instant::now();
         let watched: Vec<NodeKind> = self
             .expected
@@ -299,6 +300,7 @@ impl NodeHealth {
                 self.last_seen.insert(kind, now);
             }
         }
+        Ok(())
     }
 
     /// Whether `kind` runs on a host that is cut off now.
