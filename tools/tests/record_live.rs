@@ -2,9 +2,11 @@
 //! records what is published byte for byte, and finalises the file on a stop request.
 //! Its own test binary because the stop request is process-wide.
 
-use aisle_bus::{Bus, Instance, NodeArgs, WaitOutcome, signals};
+use aisle_bus::{Bus, Instance, NodeArgs, Stamp, WaitOutcome, signals};
 use aisle_messages::topics::names as s;
-use aisle_messages::{NodeKind, NodeState, RobotState, Tick, TickMode, topics};
+use aisle_messages::{
+    NodeKind, NodeState, RobotState, StageStatus, Tick, TickDone, TickMode, topics,
+};
 use aisle_tools::aligned::{message_bytes, zeroed_box};
 use aisle_tools::{RecordFile, RecorderOptions, run_recorder_with};
 use std::path::PathBuf;
@@ -62,6 +64,12 @@ fn records_published_payloads_byte_for_byte_and_finalises_on_stop() {
         panic!("the recorder did not report Ready: {result:?}");
     }
 
+    // Paced like a lockstep group: tick k, its robot state, the supervisor's
+    // acknowledgement, then the recorder's. Paced by sleeps instead, a host that held
+    // the recorder past four publications dropped tick 1 from its buffer unseen (a
+    // publisher's first sample cannot be known lost).
+    let mut acks = bus.publisher(topics::TICK_DONE).unwrap();
+    let dones = bus.subscriber(topics::TICK_DONE).unwrap();
     let mut sent_ticks = Vec::new();
     let mut sent_states = Vec::new();
     for k in 1..=50u64 {
@@ -78,9 +86,26 @@ fn records_published_payloads_byte_for_byte_and_finalises_on_stop() {
         r.pose.x = k as f64 * 0.01;
         robot.publish_bytes(message_bytes(&*r)).unwrap();
         sent_states.push(message_bytes(&*r).to_vec());
-        std::thread::sleep(Duration::from_millis(2));
+        let stamp = Stamp {
+            tick: k,
+            ..Stamp::default()
+        };
+        acks.publish(stamp, |m| {
+            m.node = NodeKind::Supervisor.code();
+            m.status = StageStatus::Done as u32;
+        })
+        .unwrap();
+        let recorder_done =
+            |d: &TickDone| d.node == NodeKind::Recorder.code() && d.header.tick == k;
+        let (outcome, _) = dones
+            .wait_for(Duration::from_secs(20), recorder_done, || {})
+            .unwrap();
+        assert_eq!(
+            outcome,
+            WaitOutcome::Matched,
+            "the recorder did not acknowledge tick {k}"
+        );
     }
-    std::thread::sleep(Duration::from_millis(300));
     signals::request_stop();
     let summary = recorder.join().unwrap().unwrap();
     assert_eq!(summary.lost(), 0, "{summary:?}");
@@ -109,7 +134,7 @@ fn records_published_payloads_byte_for_byte_and_finalises_on_stop() {
             .any(|(n, m)| n == "aisle.recorder" && m["lost_total"] == "0")
     );
 
-    drop((hb, ticks, robot, announce, bus));
+    drop((hb, ticks, robot, acks, dones, announce, bus));
     instance.remove().unwrap();
     std::fs::remove_file(&out).unwrap();
     std::fs::remove_dir_all(&config_dir).unwrap();
