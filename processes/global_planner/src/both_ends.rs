@@ -18,15 +18,17 @@
 //! hence the turns: each search goes on from where its last turn stopped (the one from
 //! the goal with buffers and a heuristic of its own), so what the search from the start
 //! expands, turns and all, is what it expands alone, and the turns cost only the other
-//! search's work. Deterministic: turns are counted in expansions.
+//! search's work. When both ends are hard, neither search alone is cheap: a node either
+//! search closes where the other has closed one joins them (`meet.rs`), and each pays
+//! only for its own end. Deterministic: turns are counted in expansions.
 
 use crate::error::{PlanError, PlanErrorKind, PlanStats};
 use crate::heuristic::GridHeuristic;
+use crate::meet::turned;
 use crate::search::{Plan, PlanRequest, Planner};
 use crate::search_buffers::Buffers;
 use crate::search_core::RunState;
 use aisle_geometry::{Direction, GridView, PathPose, Pose2, wrap_angle};
-use std::f64::consts::PI;
 
 /// How far a search of a request has come: what it did so far, its loop's state, and
 /// whether it has started (a turn after the first goes on from the open list).
@@ -49,14 +51,16 @@ pub(crate) struct Mirror {
 
 /// Which search a turn runs.
 pub(crate) enum Side<'a> {
-    Start(&'a mut Progress),
+    /// The search from the start, and the one from the goal once it has started (whose
+    /// closed nodes the start's may join, `meet.rs`).
+    Start(&'a mut Progress, Option<&'a Buffers>),
     Goal(&'a mut Mirror),
 }
 
 impl Side<'_> {
     pub(crate) fn progress(&mut self) -> &mut Progress {
         match self {
-            Side::Start(p) => p,
+            Side::Start(p, _) => p,
             Side::Goal(m) => &mut m.progress,
         }
     }
@@ -101,7 +105,8 @@ impl Planner {
         let mut goal_end = cap > 0;
         let mirrored = mirror(req);
         while goal_end && cap.saturating_mul(GROWTH) <= req.max_expansions {
-            let start_side = Side::Start(&mut from_start);
+            let other = from_goal.progress.started.then_some(&from_goal.buf);
+            let start_side = Side::Start(&mut from_start, other);
             match self.turn(req, map, bound, Some(cap), start_side, should_stop) {
                 Err(e) if e.kind == PlanErrorKind::BudgetExhausted && !relieved(&e.stats) => {}
                 // A relieved end took its whole budget in this turn.
@@ -125,7 +130,8 @@ impl Planner {
             }
             cap = cap.saturating_mul(GROWTH);
         }
-        let start_side = Side::Start(&mut from_start);
+        let other = from_goal.progress.started.then_some(&from_goal.buf);
+        let start_side = Side::Start(&mut from_start, other);
         let last = self.turn(req, map, bound, None, start_side, should_stop);
         with_other(last, &from_goal.progress, false)
     }
@@ -150,10 +156,6 @@ fn mirror(req: &PlanRequest) -> PlanRequest {
         goal: turned(&req.start),
         ..*req
     }
-}
-
-fn turned(p: &Pose2) -> Pose2 {
-    Pose2::new(p.x, p.y, wrap_angle(p.theta + PI))
 }
 
 /// A path of the mirrored request as a path of `req`: the poses in reverse order,

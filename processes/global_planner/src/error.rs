@@ -32,6 +32,8 @@ pub struct PlanStats {
     pub goal_relief: Option<f64>,
     /// Whether the path came from the search from the goal's end (`both_ends.rs`).
     pub from_goal: bool,
+    /// Whether the path joins the searches from both ends where they met (`meet.rs`).
+    pub met: bool,
 }
 
 /// What was wrong with a request.

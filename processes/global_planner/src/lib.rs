@@ -45,6 +45,7 @@ mod docked;
 pub mod error;
 mod heuristic;
 pub mod large_map;
+mod meet;
 mod model;
 pub mod motion;
 mod motion_cache;

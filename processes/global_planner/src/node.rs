@@ -275,10 +275,11 @@ impl Stage for PlannerStage {
                 plan.path.len(),
                 plan.stats.expansions,
                 solve_ns as f64 / 1e6,
-                if plan.stats.from_goal {
-                    "; found from the goal's end"
-                } else {
-                    ""
+                match (plan.stats.from_goal, plan.stats.met) {
+                    (true, true) => "; found from the goal's end, joining the start's search",
+                    (true, false) => "; found from the goal's end",
+                    (false, true) => "; joining the goal's search",
+                    (false, false) => "",
                 },
                 match plan.stats.start_relief {
                     Some(m) => format!("; the start is inside the margin: {m:.3} m kept near it"),

@@ -203,7 +203,7 @@ impl Planner {
         let goal = Pose2::new(req.goal.x, req.goal.y, wrap_angle(req.goal.theta));
         // Once a request, in its first turn: the map's comparison with the kept copy
         // reads every cell (about 1 ms on a 100 x 200 m map at 20 cells/m).
-        let first_turn = matches!(side, Side::Start(p) if !p.started);
+        let first_turn = matches!(side, Side::Start(p, _) if !p.started);
         let rebuilt = first_turn && self.ensure_tables(map);
         if first_turn {
             self.dm.motions.get_mut().begin_request();
@@ -216,12 +216,13 @@ impl Planner {
         progress.stats.map_rebuilt |= rebuilt;
         let (checker, output, radius) =
             request_checks(&self.dm, &sizes, &start, &goal, &mut progress.stats)?;
-        let (heur, buf, progress) = match side {
-            Side::Start(progress) => {
+        // The other end's search, to join (`meet.rs`): the start's goes first.
+        let (heur, buf, progress, other) = match side {
+            Side::Start(progress, other) => {
                 let k = heuristic_for(&self.heur, &mut self.heur_last, radius);
-                (&mut self.heur[k], &mut self.buf, &mut **progress)
+                (&mut self.heur[k], &mut self.buf, &mut **progress, *other)
             }
-            Side::Goal(m) => (&mut m.heur, &mut m.buf, &mut m.progress),
+            Side::Goal(m) => (&mut m.heur, &mut m.buf, &mut m.progress, Some(&self.buf)),
         };
         let stats = &mut progress.stats;
         // A relieved end is searched from the start alone (`both_ends.rs`): no turns.
@@ -253,6 +254,7 @@ impl Planner {
             goal,
             bound,
             buf: &mut *buf,
+            other,
             stats: &mut *stats,
         };
         if !progress.started {
@@ -262,12 +264,21 @@ impl Planner {
         let outcome = search.run(&mut progress.run, should_stop);
         let stats = &mut progress.stats;
         stats.heuristic_cells = heur.settled;
-        let (last, shot) = outcome?;
-
-        stats.path_cost = buf.nodes[last].g + shot.cost;
+        let reached = outcome?;
+        let joined = reached.other.zip(other).map(|(k, o)| (o, k));
+        let rest = joined.map_or(0.0, |(o, k)| o.nodes[k as usize].g);
+        stats.path_cost = buf.nodes[reached.last].g + reached.shot.cost + rest;
+        stats.met = joined.is_some();
         let rotate_step =
             (cfg.validation_distance / output.full_checker().circumscribed_radius()).min(0.2);
-        buf.trace(last, model, &shot, cfg.validation_distance, rotate_step);
+        let to_goal = (&reached.shot, joined);
+        buf.trace(
+            reached.last,
+            model,
+            to_goal,
+            cfg.validation_distance,
+            rotate_step,
+        );
         // Land exactly on the goal (the integrated end is within round-off of it).
         let end = buf.raw.len() - 1;
         buf.raw[end].pose = goal;

@@ -6,6 +6,7 @@
 //! Knows the search's node and what a motion samples to; nothing of the search's order
 //! of work (`search_core.rs`).
 
+use crate::meet;
 use crate::model::{DIR_NONE, Model, Shot};
 use crate::motion::Motion;
 use crate::reeds_shepp::Candidates;
@@ -137,12 +138,14 @@ impl Buffers {
         });
     }
 
-    /// Samples the motions from the start to `last` and then `shot` into `raw`.
+    /// Samples the motions from the start to `last`, then `shot`, then (when the shot
+    /// joined the other end's search) that search's path from its node back to its start
+    /// (`meet.rs`) into `raw`.
     pub(crate) fn trace(
         &mut self,
         last: usize,
         model: &Model,
-        shot: &Shot,
+        (shot, other): (&Shot, Option<(&Buffers, u32)>),
         spacing: f64,
         rot: f64,
     ) {
@@ -163,6 +166,9 @@ impl Buffers {
         for m in shot.motions() {
             self.traced.push((pose, *m));
             pose = m.end(&pose);
+        }
+        if let Some((other, from)) = other {
+            pose = meet::append_other_half(&mut self.traced, other, model, from);
         }
         if self.traced.is_empty() {
             self.traced.push((pose, Motion::Rotate { angle: 0.0 }));

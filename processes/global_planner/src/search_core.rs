@@ -1,7 +1,7 @@
 //! The search core of Hybrid A*, apart from its planner (in the manner of Nav2 smac's
 //! `a_star.hpp` beside `smac_planner_hybrid.hpp`): the search node, the expansion
 //! budget, and one request's [`Search`] (`next_node`, `close`, `shot_due`,
-//! `analytic_expansion`, `expand`) with its goal test and its cost bound. The open
+//! `analytic_expansion`, `join`, `expand`) with its goal test and its cost bound. The open
 //! list's order and the buffers kept between requests are `search_buffers.rs`.
 //!
 //! Knows the motion model, the collision checks (`Clearance`) and the heuristic it is handed; knows
@@ -12,6 +12,7 @@ use crate::config::PlannerConfig;
 use crate::distance_map::DistanceMap;
 use crate::error::{PlanErrorKind, PlanStats};
 use crate::heuristic::GridHeuristic;
+use crate::meet;
 use crate::model::{DIR_NONE, Model, Shot};
 use crate::motion::pose_bits;
 use crate::relief::Clearance;
@@ -53,7 +54,19 @@ pub(crate) struct Search<'a> {
     /// the grid's quantisation and its overestimate).
     pub(crate) bound: f64,
     pub(crate) buf: &'a mut Buffers,
+    /// The search from the request's other end, once it has started: a node this
+    /// search closes in the state of one it has closed joins the two (`meet.rs`).
+    pub(crate) other: Option<&'a Buffers>,
     pub(crate) stats: &'a mut PlanStats,
+}
+
+/// How a search reached its goal: from node `last` by `shot`, and then, if the shot
+/// joined the other end's search, along that search's path from its node `other`.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Reached {
+    pub(crate) last: usize,
+    pub(crate) shot: Shot,
+    pub(crate) other: Option<u32>,
 }
 
 /// What the search's loop carries from one run to the next (`both_ends.rs` resumes a
@@ -89,14 +102,14 @@ impl Search<'_> {
         self.stats.nodes = 1;
     }
 
-    /// Expands nodes in order of f until an analytic expansion reaches the goal; returns
-    /// the node it left from and the shot. A search that ran out of budget may be run
+    /// Expands nodes in order of f until an analytic expansion reaches the goal or joins
+    /// the other end's search; returns how. A search that ran out of budget may be run
     /// again with a larger one and the same `state`: it goes on where it stopped.
     pub(crate) fn run(
         &mut self,
         state: &mut RunState,
         should_stop: &mut dyn FnMut() -> bool,
-    ) -> Result<(usize, Shot), PlanErrorKind> {
+    ) -> Result<Reached, PlanErrorKind> {
         loop {
             // Judged before a node is popped, so that nothing is lost when the search
             // is resumed.
@@ -125,7 +138,18 @@ impl Search<'_> {
             if self.shot_due(&node, &mut state.since_shot)
                 && let Some(shot) = self.analytic_expansion(&node)
             {
-                return Ok((ni, shot));
+                return Ok(Reached {
+                    last: ni,
+                    shot,
+                    other: None,
+                });
+            }
+            if let Some((shot, other)) = self.join(&node) {
+                return Ok(Reached {
+                    last: ni,
+                    shot,
+                    other: Some(other),
+                });
             }
             self.expand(ni, &node);
         }
@@ -251,19 +275,64 @@ impl Search<'_> {
     /// Tries the cheapest analytic connections from `node` to the goal; the first that
     /// is collision free and lands on the goal ends the search.
     pub(crate) fn analytic_expansion(&mut self, node: &Node) -> Option<Shot> {
-        let (model, buf) = (self.model, &mut *self.buf);
         let from = Some(pose_bits(&node.pose));
-        if buf.rs_from != from {
-            crate::reeds_shepp::solve(&node.pose, &self.goal, model.radius, &mut buf.rs);
-            buf.rs_from = from;
+        if self.buf.rs_from != from {
+            let radius = self.model.radius;
+            crate::reeds_shepp::solve(&node.pose, &self.goal, radius, &mut self.buf.rs);
+            self.buf.rs_from = from;
         }
+        let goal = self.goal;
+        self.first_free_shot(node, &goal, node.g)
+    }
+
+    /// Joins `node` to the other end's search where that search has closed the state
+    /// of `node` turned half round (`meet.rs`): the cheapest collision-free analytic
+    /// connection, counting what the other search's path costs from where it lands, to
+    /// that node or to one of its ancestors a little further on (a connection between
+    /// two poses a few centimetres apart is a jog on the spot; one that ends a metre or
+    /// two on can be a gentle curve).
+    #[inline]
+    fn join(&mut self, node: &Node) -> Option<(Shot, u32)> {
+        let other = self.other?;
+        let mut k = meet::closed_in_other(other, &self.grid, self.model, &node.pose)?;
+        let mut best: Option<(f64, Shot, u32)> = None;
+        for step in 0..=meet::JOIN_STEPS {
+            if step > 0 {
+                k = other.nodes[k as usize].parent;
+                if k == NONE {
+                    break;
+                }
+            }
+            if step % meet::JOIN_EVERY != 0 {
+                continue;
+            }
+            let met = &other.nodes[k as usize];
+            let target = meet::turned(&met.pose);
+            crate::reeds_shepp::solve(&node.pose, &target, self.model.radius, &mut self.buf.rs);
+            // The candidates are to another pose than the goal.
+            self.buf.rs_from = None;
+            let spent = node.g + met.g;
+            if let Some(shot) = self.first_free_shot(node, &target, spent)
+                && best.is_none_or(|(c, ..)| spent + shot.cost < c)
+            {
+                best = Some((spent + shot.cost, shot, k));
+            }
+        }
+        best.map(|(_, shot, k)| (shot, k))
+    }
+
+    /// The first of the cheapest analytic connections from `node` to `target` (the
+    /// Reeds-Shepp candidates in the buffers, and rotate-translate-rotate ones) that is
+    /// collision free and lands on it, within the bound once `spent` is added.
+    fn first_free_shot(&mut self, node: &Node, target: &Pose2, spent: f64) -> Option<Shot> {
+        let (model, buf) = (self.model, &mut *self.buf);
         buf.shots.clear();
         for p in buf.rs.as_slice() {
             buf.shots.push(model.rs_shot(p, node.dir));
         }
         if model.allow_rotation {
             buf.shots
-                .extend(model.rtr_shots(&node.pose, &self.goal, node.dir));
+                .extend(model.rtr_shots(&node.pose, target, node.dir));
         }
         // Stable sort: ties keep the solver's fixed order, so the choice is deterministic.
         buf.shots.sort_by(|a, b| a.cost.total_cmp(&b.cost));
@@ -271,11 +340,11 @@ impl Search<'_> {
         for shot in buf.shots.iter().take(tries) {
             // A weighted search can reach the goal through nodes within the bound on a
             // path above it; such a path is no use to the caller, a cheaper one may be.
-            if node.g + shot.cost > self.bound {
+            if spent + shot.cost > self.bound {
                 break;
             }
             self.stats.analytic_checks += 1;
-            if shot_reaches_goal(&self.checker, &node.pose, shot, &self.goal, self.stats) {
+            if shot_reaches_goal(&self.checker, &node.pose, shot, target, self.stats) {
                 return Some(*shot);
             }
         }

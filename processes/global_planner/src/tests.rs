@@ -618,6 +618,7 @@ mod bound;
 mod goal_wall;
 mod golden;
 mod lazy;
+mod meet;
 mod relief;
 mod validation;
 mod wedged;
