@@ -5,7 +5,8 @@
 
 use aisle_geometry::Pose2;
 use aisle_global_planner::seed_map::{
-    ROBOT, ROBOT_MARGIN, Rect, dead_end_park, rasterise, seed_map, seed_segments,
+    ROBOT, ROBOT_MARGIN, Rect, dead_end_park, narrow_hall, narrow_hall_carry, rasterise, seed_map,
+    seed_segments,
 };
 use aisle_global_planner::{PlanErrorKind, PlanRequest, Planner, PlannerConfig};
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -136,5 +137,38 @@ fn dead_end(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, segments, exhausted_budget, dead_end);
+/// A carry whose two ends are both hard (`meet.rs`): the searches from both ends
+/// meeting (the shipped config), and from the start alone.
+fn narrow_meet(c: &mut Criterion) {
+    let map = narrow_hall();
+    let view = map.view();
+    let carry = narrow_hall_carry(37.5);
+    let req = PlanRequest {
+        start: carry.start,
+        goal: carry.goal,
+        footprint: carry.footprint,
+        margin: carry.margin,
+        max_expansions: BUDGET,
+    };
+    let mut g = c.benchmark_group("hybrid_astar");
+    g.sample_size(10);
+    for (name, goal_end_after) in [("both_ends", 4096), ("start_only", 0)] {
+        let mut planner = Planner::new(PlannerConfig {
+            goal_end_after,
+            ..PlannerConfig::default()
+        })
+        .expect("valid");
+        let plan = planner.plan(&req, &view).expect("the carry plans");
+        println!(
+            "{name}: {} expansions, cost {:.2}, met: {}",
+            plan.stats.expansions, plan.stats.path_cost, plan.stats.met
+        );
+        g.bench_function(format!("narrow_hall_carry/{name}"), |b| {
+            b.iter(|| black_box(planner.plan(black_box(&req), &view).is_ok()))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, segments, exhausted_budget, dead_end, narrow_meet);
 criterion_main!(benches);

@@ -150,6 +150,43 @@ pub fn dead_end_park() -> (GridMap, Segment) {
     (map, park)
 }
 
+/// A 13.6 x 40 m hall at 20 cells/m with the narrow aisles of `config/narrow`: walls,
+/// four rack rows (1.4-1.6 m deep) leaving three 2.2 m aisles (centres x 3.0, 6.8 and
+/// 10.6), broken by 4 m cross aisles at y 17-21, 26-30 and 35-39 above an open area
+/// below y 12, and a box across the middle aisle at y 13. The carried rack cannot turn
+/// in an aisle, and a goal in a cross aisle facing across it is entered only by a turn
+/// at the goal, which neither heuristic sees (`meet.rs`).
+pub fn narrow_hall() -> GridMap {
+    let mut map = GridMap::new_free(0.0, 0.0, 0.05, 13.6, 40.0).expect("valid grid");
+    let mut rects = vec![
+        Rect::new(0.0, 0.0, 13.6, 0.5),
+        Rect::new(0.0, 39.5, 13.6, 40.0),
+        Rect::new(0.0, 0.0, 0.5, 40.0),
+        Rect::new(13.1, 0.0, 13.6, 40.0),
+        Rect::new(5.7, 13.0, 7.9, 13.6),
+    ];
+    for (x0, x1) in [(0.5, 1.9), (4.1, 5.7), (7.9, 9.5), (11.7, 13.1)] {
+        for (y0, y1) in [(12.0, 17.0), (21.0, 26.0), (30.0, 35.0)] {
+            rects.push(Rect::new(x0, y0, x1, y1));
+        }
+    }
+    rasterise(&mut map, &rects);
+    map
+}
+
+/// A carrying request in [`narrow_hall`] whose two ends are both hard: from the open
+/// area's west side, facing the wall, to the east aisle's cross aisle at `y`, facing
+/// south.
+pub fn narrow_hall_carry(y: f64) -> Segment {
+    Segment {
+        name: "narrow_hall_carry",
+        start: Pose2::new(3.0, 5.0, std::f64::consts::PI),
+        goal: Pose2::new(10.6, y, -FRAC_PI_2),
+        footprint: RACK,
+        margin: RACK_MARGIN,
+    }
+}
+
 /// Rasterises a scene's static bodies into a map of the seed's extent, for tests and
 /// benchmarks against the real scene file: every part of a static body that reaches into
 /// the height limits [0, 5] m marks the cells its (possibly rotated) rectangle overlaps,
