@@ -254,13 +254,9 @@ impl NodeHealth {
 
     /// Kills every node whose heartbeats stopped (a hang: SIGSTOP, a deadlock, a cycle
     /// that never ends); the next check reaps and restarts it. A ready node gets the
-    /// clock mode's timeout, one still starting its start timeout.
-    ///
-    /// Judged on the heartbeats queued by now, drained here rather than trusted from
-    /// an earlier drain: a restart in between may take a while (freeing a dead node's
-    /// resources, spawning its successor) and whatever arrived meanwhile waits in the
-    /// queue. Judged on a stale drain, a restart that took 0.27 s declared all four
-    /// other nodes hung (realtime timeout 0.2 s) and killed them.
+    /// clock mode's timeout, one still starting its start timeout. Judged on the beats
+    /// drained here, not by an earlier drain: a restart in between (0.27 s once) left
+    /// the beats sent meanwhile queued, and all four other nodes were judged hung.
     fn kill_silent(&mut self) -> Result<(), RunAborted> {
         self.drain_heartbeats()?;
         let now = Instant::now();
