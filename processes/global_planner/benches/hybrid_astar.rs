@@ -3,10 +3,10 @@
 //! map tables are already built for the map, as the node does while the map is
 //! unchanged; "cold" builds a new planner per request (map tables and buffers included).
 
-use aisle_geometry::Pose2;
+use aisle_geometry::{GridMap, Pose2};
 use aisle_global_planner::seed_map::{
-    ROBOT, ROBOT_MARGIN, Rect, dead_end_park, narrow_hall, narrow_hall_carry, rasterise, seed_map,
-    seed_segments,
+    ROBOT, ROBOT_MARGIN, Rect, Segment, dead_end_park, narrow_hall, narrow_hall_carry, rasterise,
+    seed_map, seed_segments,
 };
 use aisle_global_planner::{PlanErrorKind, PlanRequest, Planner, PlannerConfig};
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -105,49 +105,31 @@ fn exhausted_budget(c: &mut Criterion) {
     g.finish();
 }
 
-/// A park whose goal faces out of a dead-end aisle (`both_ends.rs`): with the search
-/// from the goal's end taking turns (the shipped config), and from the start alone.
+/// A park whose goal faces out of a dead-end aisle (`both_ends.rs`).
 fn dead_end(c: &mut Criterion) {
     let (map, park) = dead_end_park();
-    let view = map.view();
-    let req = PlanRequest {
-        start: park.start,
-        goal: park.goal,
-        footprint: park.footprint,
-        margin: park.margin,
-        max_expansions: BUDGET,
-    };
-    let mut g = c.benchmark_group("hybrid_astar");
-    g.sample_size(10);
-    for (name, goal_end_after) in [("both_ends", 4096), ("start_only", 0)] {
-        let mut planner = Planner::new(PlannerConfig {
-            goal_end_after,
-            ..PlannerConfig::default()
-        })
-        .expect("valid");
-        let plan = planner.plan(&req, &view).expect("the park plans");
-        println!(
-            "{name}: {} expansions, cost {:.2}, from the goal's end: {}",
-            plan.stats.expansions, plan.stats.path_cost, plan.stats.from_goal
-        );
-        g.bench_function(format!("dead_end_park/{name}"), |b| {
-            b.iter(|| black_box(planner.plan(black_box(&req), &view).is_ok()))
-        });
-    }
-    g.finish();
+    both_ends_and_start_alone(c, "dead_end_park", &map, &park);
 }
 
-/// A carry whose two ends are both hard (`meet.rs`): the searches from both ends
-/// meeting (the shipped config), and from the start alone.
+/// A carry whose two ends are both hard, so that the two searches meet (`meet.rs`).
 fn narrow_meet(c: &mut Criterion) {
-    let map = narrow_hall();
+    both_ends_and_start_alone(
+        c,
+        "narrow_hall_carry",
+        &narrow_hall(),
+        &narrow_hall_carry(37.5),
+    );
+}
+
+/// `seg` on `map` with the search from the goal's end taking turns (the shipped
+/// config), and from the start alone, each with a warm planner.
+fn both_ends_and_start_alone(c: &mut Criterion, case: &str, map: &GridMap, seg: &Segment) {
     let view = map.view();
-    let carry = narrow_hall_carry(37.5);
     let req = PlanRequest {
-        start: carry.start,
-        goal: carry.goal,
-        footprint: carry.footprint,
-        margin: carry.margin,
+        start: seg.start,
+        goal: seg.goal,
+        footprint: seg.footprint,
+        margin: seg.margin,
         max_expansions: BUDGET,
     };
     let mut g = c.benchmark_group("hybrid_astar");
@@ -158,12 +140,12 @@ fn narrow_meet(c: &mut Criterion) {
             ..PlannerConfig::default()
         })
         .expect("valid");
-        let plan = planner.plan(&req, &view).expect("the carry plans");
+        let plan = planner.plan(&req, &view).expect("the case plans");
         println!(
-            "{name}: {} expansions, cost {:.2}, met: {}",
-            plan.stats.expansions, plan.stats.path_cost, plan.stats.met
+            "{case}/{name}: {} expansions, cost {:.2}, from the goal's end: {}, met: {}",
+            plan.stats.expansions, plan.stats.path_cost, plan.stats.from_goal, plan.stats.met
         );
-        g.bench_function(format!("narrow_hall_carry/{name}"), |b| {
+        g.bench_function(format!("{case}/{name}"), |b| {
             b.iter(|| black_box(planner.plan(black_box(&req), &view).is_ok()))
         });
     }
