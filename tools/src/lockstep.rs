@@ -407,6 +407,11 @@ fn wait_acks(
                     nodes: a.pending().iter().map(|n| n.name()).collect(),
                     tick: batch.tick,
                     waited_ms: waited.as_millis() as u64,
+                    published: batch
+                        .publish
+                        .iter()
+                        .map(|m| m.channel.topic.clone())
+                        .collect(),
                 });
             }
             alive().map_err(ReplayError::ConsumerGone)

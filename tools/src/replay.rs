@@ -120,11 +120,17 @@ pub enum ReplayError {
         "{file} was recorded in realtime: a lockstep replay needs a lockstep recording (`aisle run` without --realtime)"
     )]
     NotLockstep { file: PathBuf },
-    #[error("no acknowledgement of tick {tick} from {} after {waited_ms} ms", nodes.join(", "))]
+    #[error(
+        "no acknowledgement of tick {tick} from {} after {waited_ms} ms (the tick published {})",
+        nodes.join(", "),
+        if published.is_empty() { "nothing".to_string() } else { published.join(", ") }
+    )]
     NoAck {
         nodes: Vec<&'static str>,
         tick: u64,
         waited_ms: u64,
+        /// The services the tick's samples went to, in order: what the node was given.
+        published: Vec<String>,
     },
     #[error("{0}")]
     ConsumerGone(String),

@@ -86,7 +86,17 @@ impl Planner {
         // table is the map's size, allocated only once a request has needed it).
         let mut from_goal = self.mirror.take().unwrap_or_default();
         from_goal.progress = Progress::default();
-        let outcome = self.alternate(req, map, bound, &mut from_goal, should_stop);
+        let mut outcome = self.alternate(req, map, bound, &mut from_goal, should_stop);
+        if let Err(first) = outcome
+            && boxed_in(&first)
+            && self.config().boxed_in_margin < 1.0
+        {
+            // Once more, with less of the margin near the start (`relief.rs`).
+            self.escaping = true;
+            outcome = self.alternate(req, map, bound, &mut from_goal, should_stop);
+            self.escaping = false;
+            outcome = escaped(outcome, &first.stats);
+        }
         self.mirror = Some(from_goal);
         outcome
     }
@@ -135,6 +145,19 @@ impl Planner {
         let last = self.turn(req, map, bound, None, start_side, should_stop);
         with_other(last, &from_goal.progress, false)
     }
+}
+
+/// Whether `e` says the search from the start was boxed in (`relief.rs`).
+fn boxed_in(e: &PlanError) -> bool {
+    e.kind == PlanErrorKind::NoPath && e.stats.boxed_in && !e.stats.from_goal
+}
+
+/// The second search's outcome from a boxed-in start, counting the first's work.
+fn escaped(outcome: Result<Plan, PlanError>, first: &PlanStats) -> Result<Plan, PlanError> {
+    with_stats(outcome, |s| PlanStats {
+        escaped: true,
+        ..plus_work(s, first)
+    })
 }
 
 fn relieved(stats: &PlanStats) -> bool {
@@ -189,25 +212,37 @@ fn with_other(
     other: &Progress,
     from_goal: bool,
 ) -> Result<Plan, PlanError> {
-    let total = |s: &PlanStats| {
-        let o = &other.stats;
-        let mut t = *s;
-        t.expansions += o.expansions;
-        t.nodes += o.nodes;
-        t.analytic_checks += o.analytic_checks;
-        t.collision_probes += o.collision_probes;
-        t.map_rebuilt |= o.map_rebuilt;
-        t.from_goal = from_goal;
-        t
-    };
+    with_stats(outcome, |s| PlanStats {
+        from_goal,
+        ..plus_work(s, &other.stats)
+    })
+}
+
+/// `s` with the work counted in `o` added.
+fn plus_work(s: &PlanStats, o: &PlanStats) -> PlanStats {
+    PlanStats {
+        expansions: s.expansions + o.expansions,
+        nodes: s.nodes + o.nodes,
+        analytic_checks: s.analytic_checks + o.analytic_checks,
+        collision_probes: s.collision_probes + o.collision_probes,
+        map_rebuilt: s.map_rebuilt || o.map_rebuilt,
+        ..*s
+    }
+}
+
+/// `outcome` with its stats replaced by `f` of them.
+fn with_stats(
+    outcome: Result<Plan, PlanError>,
+    f: impl Fn(&PlanStats) -> PlanStats,
+) -> Result<Plan, PlanError> {
     match outcome {
         Ok(plan) => Ok(Plan {
-            stats: total(&plan.stats),
+            stats: f(&plan.stats),
             path: plan.path,
         }),
         Err(e) => Err(PlanError {
             kind: e.kind,
-            stats: total(&e.stats),
+            stats: f(&e.stats),
         }),
     }
 }

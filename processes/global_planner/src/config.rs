@@ -90,6 +90,11 @@ pub struct PlannerConfig {
     /// sagitta and `sweep_cover` beyond the margin): motions ending or leaving within it
     /// keep the clearance the goal has (0: only the motions that end on the goal).
     pub start_relief_radius: f64,
+    /// A start boxed in at the margin (the search from it closed no node beyond
+    /// `start_relief_radius` and found no path): the request is searched once more with
+    /// the motions leaving within that radius keeping this fraction of the margin
+    /// (`relief.rs`). 1: no second search.
+    pub boxed_in_margin: f64,
     /// Weighted A*: the search orders nodes by `g + heuristic_weight * h`, so a path
     /// costs at most this factor over the best the search could find, and far fewer
     /// nodes are expanded where many paths cost nearly the same (the open floor of a
@@ -142,6 +147,7 @@ impl Default for PlannerConfig {
             dock_run_in: 0.5,
             dock_clearance: 0.03,
             start_relief_radius: 0.5,
+            boxed_in_margin: 0.5,
             heuristic_weight: 1.05,
             goal_end_after: 4096,
         }
@@ -269,6 +275,7 @@ impl Validate for PlannerConfig {
         positive("dock_run_in", self.dock_run_in)?;
         at_least("dock_clearance", self.dock_clearance, 0.0)?;
         at_least("start_relief_radius", self.start_relief_radius, 0.0)?;
+        in_range("boxed_in_margin", self.boxed_in_margin, 0.0, 1.0)?;
         in_range("heuristic_weight", self.heuristic_weight, 1.0, 5.0)?;
         Ok(())
     }

@@ -1,4 +1,8 @@
-//! Typed planning failures and the statistics reported with every outcome.
+//! Typed planning failures, the statistics reported with every outcome, and the check of
+//! a request's inputs.
+
+use crate::search::{MAX_MAP_CELLS, PlanRequest};
+use aisle_geometry::GridView;
 
 /// Counters of one planning request, reported on success and on failure.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -34,6 +38,12 @@ pub struct PlanStats {
     pub from_goal: bool,
     /// Whether the path joins the searches from both ends where they met (`meet.rs`).
     pub met: bool,
+    /// Whether the search from the start failed without closing a node beyond
+    /// `start_relief_radius`: the start is boxed in.
+    pub boxed_in: bool,
+    /// Whether the request was searched again from a boxed-in start, with the margin
+    /// near it reduced to `boxed_in_margin` of itself (`relief.rs`).
+    pub escaped: bool,
 }
 
 /// What was wrong with a request.
@@ -97,4 +107,39 @@ pub enum PlanErrorKind {
 pub struct PlanError {
     pub kind: PlanErrorKind,
     pub stats: PlanStats,
+}
+
+/// What is wrong with `req` on `map`, if anything.
+pub(crate) fn check_input(req: &PlanRequest, map: &GridView) -> Result<(), InvalidInput> {
+    if !req.start.is_finite() {
+        return Err(InvalidInput::StartNotFinite);
+    }
+    if !req.goal.is_finite() {
+        return Err(InvalidInput::GoalNotFinite);
+    }
+    let f = req.footprint;
+    if !(f.length.is_finite() && f.width.is_finite() && f.length > 0.0 && f.width > 0.0) {
+        return Err(InvalidInput::Footprint);
+    }
+    if !(req.margin.is_finite() && req.margin >= 0.0) {
+        return Err(InvalidInput::Margin);
+    }
+    let geometry_ok = map.resolution.is_finite()
+        && map.resolution > 0.0
+        && map.origin_x.is_finite()
+        && map.origin_y.is_finite();
+    if !geometry_ok
+        || map.width == 0
+        || map.height == 0
+        || map.cells.len() != map.width * map.height
+    {
+        return Err(InvalidInput::Map);
+    }
+    if map.width as u64 * map.height as u64 > MAX_MAP_CELLS {
+        return Err(InvalidInput::MapTooLarge);
+    }
+    if req.max_expansions == 0 {
+        return Err(InvalidInput::ZeroBudget);
+    }
+    Ok(())
 }

@@ -281,9 +281,12 @@ impl Stage for PlannerStage {
                     (false, true) => "; joining the goal's search",
                     (false, false) => "",
                 },
-                match plan.stats.start_relief {
-                    Some(m) => format!("; the start is inside the margin: {m:.3} m kept near it"),
-                    None => String::new(),
+                match (plan.stats.start_relief, plan.stats.escaped) {
+                    (Some(m), true) => format!("; the start is boxed in: {m:.3} m kept near it"),
+                    (Some(m), false) => {
+                        format!("; the start is inside the margin: {m:.3} m kept near it")
+                    }
+                    (None, _) => String::new(),
                 },
                 match plan.stats.goal_relief {
                     Some(m) => format!("; the goal is beside an obstacle: {m:.3} m kept near it"),

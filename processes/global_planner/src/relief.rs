@@ -22,6 +22,12 @@
 //! the short reach; others keep the full margin. A goal the search can reach as it is
 //! gets no relief.
 //!
+//! A start can also keep the margin and have no way out: boxed in, where every motion
+//! (a turn on the spot too) comes closer to something. A search that fails without
+//! closing a node beyond the relief radius is run once more (`both_ends.rs`) with the
+//! start relieved to `boxed_in_margin` of the margin: the mission has no other way to
+//! move a robot its controller stopped there.
+//!
 //! Knows footprints, the distance map and the checkers; nothing of search or requests.
 
 use crate::collision::FootprintChecker;
@@ -49,6 +55,9 @@ pub(crate) struct Sizes {
     /// `start_relief_radius` (m); 0: no relief at the start, and at the goal only for
     /// the motions that end on it.
     pub radius: f64,
+    /// The margin (m) motions leaving near a boxed-in start keep on its second search
+    /// (`boxed_in_margin` of the margin); `None`: the first search.
+    pub escape: Option<f64>,
 }
 
 /// What one request's search and output path are held to.
@@ -67,14 +76,16 @@ pub(crate) fn checks<'a>(dm: &'a DistanceMap, s: &Sizes, start: &Pose2) -> Optio
     let checker = |m: f64, cover: f64| FootprintChecker::new(dm, s.footprint.inflated(m), cover);
     let search = checker(s.margin + s.sagitta, s.cover);
     let output = checker(s.margin, s.cover);
-    if s.radius <= 0.0 || search_reaches(dm, s, start) {
+    let escape = s.escape.map(|m| m.min(s.margin));
+    if escape.is_none() && (s.radius <= 0.0 || search_reaches(dm, s, start)) {
         return output.pose_free(start).then(|| Checks {
             search: Clearance::full(search),
             output: Clearance::full(output),
             kept: None,
         });
     }
-    let kept = start_margin(dm, s.footprint, s.margin, s.sagitta + RELIEF_COVER_M, start)?;
+    let most = escape.unwrap_or(s.margin);
+    let kept = start_margin(dm, s.footprint, most, s.sagitta + RELIEF_COVER_M, start)?;
     let near_search = checker(kept + s.sagitta, RELIEF_COVER_M);
     let near_output = checker(kept, RELIEF_COVER_M);
     Some(Checks {

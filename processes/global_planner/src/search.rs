@@ -26,7 +26,7 @@ use crate::both_ends::{Mirror, Side};
 use crate::budget::Budget;
 use crate::config::PlannerConfig;
 use crate::distance_map::{DistanceMap, EAGER_CELLS};
-use crate::error::{InvalidInput, PlanError, PlanErrorKind, PlanStats};
+use crate::error::{InvalidInput, PlanError, PlanErrorKind, PlanStats, check_input};
 use crate::heuristic::{GRID_OVERESTIMATE, GridHeuristic};
 use crate::model::Model;
 use crate::motion::Motion;
@@ -85,6 +85,8 @@ pub struct Planner {
     /// 6.0 ms at 20 cells/m, 2.5 ms as read; 2.4 and 1.5 ms at 10 cells/m), for the same
     /// paths bit for bit. Takes effect on the next map.
     pub(crate) eager_small_maps: bool,
+    /// The second search of a boxed-in start is under way (`both_ends.rs`).
+    pub(crate) escaping: bool,
 }
 
 impl Planner {
@@ -100,6 +102,7 @@ impl Planner {
             mirror: None,
             dock_scratch: Vec::new(),
             eager_small_maps: false,
+            escaping: false,
         })
     }
 
@@ -211,7 +214,8 @@ impl Planner {
 
         let cfg = &self.cfg;
         let model = &self.model;
-        let sizes = end_sizes(cfg, model, req, map, &start, &goal)?;
+        let escaping = self.escaping && matches!(side, Side::Start(..));
+        let sizes = end_sizes(cfg, model, req, map, (&start, &goal), escaping)?;
         let progress = side.progress();
         progress.stats.map_rebuilt |= rebuilt;
         let (checker, output, radius) =
@@ -287,14 +291,15 @@ impl Planner {
     }
 }
 
-/// The poses' clearances for a request whose ends lie on the map.
+/// The poses' clearances for a request whose ends lie on the map; `escaping`: the
+/// second search of a boxed-in start.
 fn end_sizes(
     cfg: &PlannerConfig,
     model: &Model,
     req: &PlanRequest,
     map: &GridView,
-    start: &Pose2,
-    goal: &Pose2,
+    (start, goal): (&Pose2, &Pose2),
+    escaping: bool,
 ) -> Result<relief::Sizes, PlanErrorKind> {
     // The search keeps a little more clearance than the output needs: output poses are
     // joined by straight interpolation, which leaves the arcs by at most the sagitta.
@@ -313,6 +318,7 @@ fn end_sizes(
         sagitta,
         cover: cfg.sweep_cover,
         radius: cfg.start_relief_radius,
+        escape: escaping.then(|| cfg.boxed_in_margin * req.margin),
     })
 }
 
@@ -457,38 +463,4 @@ fn heuristic_for(heur: &[GridHeuristic; 2], last: &mut usize, r_in: f64) -> usiz
     };
     *last = k;
     k
-}
-
-fn check_input(req: &PlanRequest, map: &GridView) -> Result<(), InvalidInput> {
-    if !req.start.is_finite() {
-        return Err(InvalidInput::StartNotFinite);
-    }
-    if !req.goal.is_finite() {
-        return Err(InvalidInput::GoalNotFinite);
-    }
-    let f = req.footprint;
-    if !(f.length.is_finite() && f.width.is_finite() && f.length > 0.0 && f.width > 0.0) {
-        return Err(InvalidInput::Footprint);
-    }
-    if !(req.margin.is_finite() && req.margin >= 0.0) {
-        return Err(InvalidInput::Margin);
-    }
-    let geometry_ok = map.resolution.is_finite()
-        && map.resolution > 0.0
-        && map.origin_x.is_finite()
-        && map.origin_y.is_finite();
-    if !geometry_ok
-        || map.width == 0
-        || map.height == 0
-        || map.cells.len() != map.width * map.height
-    {
-        return Err(InvalidInput::Map);
-    }
-    if map.width as u64 * map.height as u64 > MAX_MAP_CELLS {
-        return Err(InvalidInput::MapTooLarge);
-    }
-    if req.max_expansions == 0 {
-        return Err(InvalidInput::ZeroBudget);
-    }
-    Ok(())
 }

@@ -117,11 +117,11 @@ impl Search<'_> {
                 return Err(PlanErrorKind::BudgetExhausted);
             }
             let Some(ni) = self.next_node() else {
-                return Err(if state.beyond {
-                    PlanErrorKind::AboveBound
-                } else {
-                    PlanErrorKind::NoPath
-                });
+                if state.beyond {
+                    return Err(PlanErrorKind::AboveBound);
+                }
+                self.stats.boxed_in = self.closed_near_start();
+                return Err(PlanErrorKind::NoPath);
             };
             let n = &self.buf.nodes[ni];
             if n.g + n.h_grid > self.bound {
@@ -153,6 +153,21 @@ impl Search<'_> {
             }
             self.expand(ni, &node);
         }
+    }
+
+    /// Whether every node this search closed lies within `start_relief_radius` of its
+    /// start (read once, when the search has failed).
+    #[cold]
+    fn closed_near_start(&self) -> bool {
+        let nodes = &self.buf.nodes;
+        let Some(start) = nodes.first() else {
+            return false;
+        };
+        let reach = self.cfg.start_relief_radius + 1e-9;
+        nodes
+            .iter()
+            .filter(|n| n.closed)
+            .all(|n| n.pose.distance(&start.pose) <= reach)
     }
 
     /// Pops the open node with the lowest f that is still current (not closed, not
