@@ -318,7 +318,7 @@ fn end_sizes(
         sagitta,
         cover: cfg.sweep_cover,
         radius: cfg.start_relief_radius,
-        escape: escaping.then(|| cfg.boxed_in_margin * req.margin),
+        escape: escaping.then_some(cfg.boxed_in_margin * req.margin),
     })
 }
 
