@@ -7,6 +7,7 @@
 //! Overlays do not nest: a base that is an overlay itself is refused, so one file says
 //! where every other comes from.
 
+use crate::scenario::write::is_record;
 use anyhow::{Context, bail};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -82,8 +83,8 @@ pub fn base_of(dir: &Path) -> anyhow::Result<Option<Base>> {
     Ok(Some(Base::Dir(base)))
 }
 
-/// Copies the files of `from` (recursively, `overlay.toml` left out) into `into`,
-/// replacing what is there; returns each copy with its source.
+/// Copies the files of `from` (recursively, `overlay.toml` and records left out) into
+/// `into`, replacing what is there; returns each copy with its source.
 pub fn copy_files(from: &Path, into: &Path) -> anyhow::Result<Vec<(PathBuf, PathBuf)>> {
     let mut copied = Vec::new();
     let entries = std::fs::read_dir(from).with_context(|| format!("reading {}", from.display()))?;
@@ -101,7 +102,7 @@ pub fn copy_files(from: &Path, into: &Path) -> anyhow::Result<Vec<(PathBuf, Path
             std::fs::create_dir_all(&target)
                 .with_context(|| format!("creating {}", target.display()))?;
             copied.extend(copy_files(&path, &target)?);
-        } else if path.is_file() && name != OVERLAY_FILE {
+        } else if path.is_file() && name != OVERLAY_FILE && !is_record(&path) {
             std::fs::copy(&path, &target)
                 .with_context(|| format!("copying {} to {}", path.display(), target.display()))?;
             copied.push((target, path));
@@ -146,5 +147,32 @@ mod tests {
             let e = format!("{:#}", base_of(&over).unwrap_err());
             assert!(e.contains("overlay.toml") && e.contains(says), "{e}");
         }
+    }
+
+    #[test]
+    fn records_and_the_overlay_file_are_not_copied() {
+        let root = tempfile::tempdir().unwrap();
+        let (from, into) = (root.path().join("from"), root.path().join("into"));
+        std::fs::create_dir_all(from.join("nodes")).unwrap();
+        std::fs::create_dir_all(&into).unwrap();
+        for f in [
+            "mission.toml",
+            "nodes/watch.py",
+            OVERLAY_FILE,
+            "run.mcap",
+            "old.MCAP",
+        ] {
+            std::fs::write(from.join(f), "x").unwrap();
+        }
+        let mut copied: Vec<PathBuf> = copy_files(&from, &into)
+            .unwrap()
+            .into_iter()
+            .map(|(to, _)| to.strip_prefix(&into).unwrap().to_path_buf())
+            .collect();
+        copied.sort();
+        assert_eq!(
+            copied,
+            [PathBuf::from("mission.toml"), "nodes/watch.py".into()]
+        );
     }
 }

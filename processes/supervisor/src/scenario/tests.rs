@@ -207,3 +207,19 @@ fn a_new_scene_gets_missions_of_its_own() {
     let _ = std::fs::remove_dir_all(out);
     let _ = std::fs::remove_dir_all(new_base);
 }
+
+/// A record kept beside the base config is not copied into scenarios (nor, through
+/// `copy_tree`, into oracles).
+#[test]
+fn a_record_beside_the_base_is_not_copied() {
+    let with_record = scratch("base-with-record");
+    write::copy_tree(&base(), &with_record).unwrap();
+    std::fs::write(with_record.join("run.mcap"), "not config").unwrap();
+    let out = scratch("copied-without-record");
+    write::copy_tree(&with_record, &out).unwrap();
+    assert!(out.join("mission.toml").is_file());
+    assert!(!out.join("run.mcap").exists());
+    for d in [with_record, out] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}

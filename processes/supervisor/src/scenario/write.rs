@@ -175,8 +175,17 @@ fn leg(l: &Leg) -> Table {
     t
 }
 
+/// Whether `path` is a recorded run (`*.mcap`, kept beside a config by
+/// `aisle run --config-dir D --record D/run.mcap`): no config reads one, and copied
+/// into each of a sweep's scenarios and oracles, one 560 MB record took 44 GB.
+pub fn is_record(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("mcap"))
+}
+
 /// Copies every file under `from` into `to`, keeping the tree, but for subdirectories
-/// that are config directories of their own (a `warehouse.toml` in them: `large/`).
+/// that are config directories of their own (a `warehouse.toml` in them: `large/`) and
+/// records ([`is_record`]).
 pub fn copy_tree(from: &Path, to: &Path) -> Result<(), String> {
     std::fs::create_dir_all(to).map_err(|e| format!("{}: {e}", to.display()))?;
     let entries = std::fs::read_dir(from).map_err(|e| format!("{}: {e}", from.display()))?;
@@ -188,7 +197,7 @@ pub fn copy_tree(from: &Path, to: &Path) -> Result<(), String> {
             if !src.join("warehouse.toml").exists() {
                 copy_tree(&src, &dst)?;
             }
-        } else {
+        } else if !is_record(&src) {
             std::fs::copy(&src, &dst).map_err(|e| format!("{}: {e}", src.display()))?;
         }
     }
