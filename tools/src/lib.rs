@@ -7,7 +7,8 @@
 //!   publishes);
 //! - [`lockstep`]: replays a lockstep recording tick by tick into live consumers and
 //!   compares their outputs with the recorded ones ([`tick_batches`] regroups the file,
-//!   [`diff`] names the first differing field);
+//!   [`diff`] names the first differing field, [`ack_rules`] says which recorded
+//!   acknowledgements it waits for);
 //! - [`reader`]: reads a recorded file (raw payloads, attachments, damage reports);
 //! - [`latency`]: the latency figures of a run (quantiles, budgets, tick release), one
 //!   definition for `aisle run` and `aisle profile`;
@@ -28,6 +29,7 @@
 //! `payload_fields` (header fields read from raw payload bytes). [`synthetic`] makes a
 //! deterministic fake run for tests, benchmarks and examples.
 
+pub mod ack_rules;
 pub mod aligned;
 pub mod animate;
 pub mod catalog;

@@ -12,6 +12,7 @@
 //! launched them) and a liveness probe for them. Into a live group it publishes none of
 //! the group's own topics (`trust.rs`).
 
+use crate::ack_rules::AckRules;
 use crate::catalog::service_info;
 use crate::diff::{WALL_CLOCK_FIELDS, first_difference};
 use crate::payload_fields::{SOURCE_AT, u32_at};
@@ -214,6 +215,7 @@ pub fn replay_lockstep(
         outputs: opts.compare.clone(),
     };
     let mut batches = TickBatches::new(file, batch_opts);
+    let rules = AckRules::of_record(file);
     let mut summary = LockstepSummary::default();
     let mut first_stamp = None;
     let mut latched: BTreeMap<String, Vec<u8>> = BTreeMap::new();
@@ -249,10 +251,12 @@ pub fn replay_lockstep(
         for m in &batch.publish {
             publish(ports, &mut summary, &m.channel.topic, &m.data)?;
         }
+        // What the live simulator waited for: an acknowledgement the record holds of a
+        // tick the node need not answer is timing (`ack_rules.rs`).
         let pending: Vec<(NodeKind, u32)> = batch
             .acked
             .iter()
-            .filter(|(n, _)| opts.consumers.contains(n))
+            .filter(|(n, _)| opts.consumers.contains(n) && rules.awaited(*n, batch.stages))
             .copied()
             .collect();
         let statuses = wait_acks(ports, &batch, &pending, opts.ack_timeout, alive)?;

@@ -4,7 +4,7 @@
 //! A stored payload may lack its trailing zeros, so bytes past its end read as zero.
 //! Knows the layouts; not the files, the bus or what the fields are used for.
 
-use aisle_messages::{Header, TickDone};
+use aisle_messages::{Header, Tick, TickDone};
 use std::mem::offset_of;
 
 pub(crate) const SEQ_AT: usize = offset_of!(Header, seq);
@@ -15,6 +15,7 @@ pub(crate) const PUBLISH_WALL_AT: usize = offset_of!(Header, publish_wall_ns);
 pub(crate) const SOURCE_AT: usize = offset_of!(Header, source);
 pub(crate) const DONE_NODE_AT: usize = offset_of!(TickDone, node);
 pub(crate) const DONE_STATUS_AT: usize = offset_of!(TickDone, status);
+pub(crate) const TICK_STAGES_AT: usize = offset_of!(Tick, stages);
 
 /// The `N` bytes at `at` (zero past the end of `b`).
 fn bytes_at<const N: usize>(b: &[u8], at: usize) -> [u8; N] {

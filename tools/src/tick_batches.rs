@@ -13,7 +13,7 @@
 //! does not publish anything.
 
 use crate::payload_fields::{
-    DONE_NODE_AT, DONE_STATUS_AT, SOURCE_AT, STAMP_AT, TICK_AT, u32_at, u64_at,
+    DONE_NODE_AT, DONE_STATUS_AT, SOURCE_AT, STAMP_AT, TICK_AT, TICK_STAGES_AT, u32_at, u64_at,
 };
 use crate::reader::{FileMessage, Messages, ReadError, RecordFile};
 use aisle_messages::NodeKind;
@@ -42,6 +42,8 @@ pub struct TickBatch {
     pub outputs: Vec<FileMessage>,
     /// Nodes that acknowledged this tick, with the status they reported (first per node).
     pub acked: Vec<(NodeKind, u32)>,
+    /// The stage flags of the tick's `Tick`, if the record holds it.
+    pub stages: Option<u32>,
 }
 
 /// The header fields a batch needs, read from a payload that may have been stored
@@ -121,6 +123,10 @@ impl<'a> TickBatches<'a> {
         let h = header_fields(&m.data);
         self.max_tick = Some(self.max_tick.map_or(h.tick, |t| t.max(h.tick)));
         let topic = m.channel.topic.as_str();
+        if topic == s::TICK && NodeKind::from_u32(h.source) == Some(NodeKind::Simulator) {
+            let stages = u32_at(&m.data, TICK_STAGES_AT);
+            self.batch(h.tick, h.stamp_ns).stages.get_or_insert(stages);
+        }
         if topic == s::TICK_DONE {
             let node = NodeKind::from_u32(u32_at(&m.data, DONE_NODE_AT));
             let status = u32_at(&m.data, DONE_STATUS_AT);

@@ -10,7 +10,7 @@ use aisle_messages::{GlobalGrid, NodeKind, OccupancyGrid, StageStatus, TickMode,
 use aisle_tools::lockstep::{LockstepOptions, LockstepPorts, replay_lockstep};
 use aisle_tools::replay::ReplayError;
 use aisle_tools::synthetic::write_synthetic;
-use aisle_tools::tick_batches::header_fields;
+use aisle_tools::tick_batches::{BatchOptions, TickBatches, header_fields};
 use aisle_tools::{RecordFile, RecordWriter, WriterOptions};
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -269,4 +269,90 @@ fn a_realtime_recording_is_refused_for_lockstep() {
     let err = LockstepPorts::open(&bus, &file, &opts).err().unwrap();
     assert!(matches!(err, ReplayError::NotLockstep { .. }), "{err}");
     assert!(err.to_string().contains("aisle-realtime-"), "{err}");
+}
+
+/// A stand-in controller that answers only the ticks flagged for it, each after a
+/// pause; returns the ticks it saw and whether a tick arrived before it answered the
+/// controller tick before it.
+fn stand_in_controller(instance: Instance, ready: mpsc::Sender<()>) -> JoinHandle<Seen> {
+    std::thread::spawn(move || {
+        let (bus, _) =
+            Bus::join(&instance, NodeKind::TebController, Duration::from_secs(10)).unwrap();
+        let ticks = bus.subscriber(topics::TICK).unwrap();
+        let mut acks = bus.publisher(topics::TICK_DONE).unwrap();
+        ready.send(()).unwrap();
+        let mut seen = Seen {
+            clouds: Vec::new(),
+            early: false,
+        };
+        loop {
+            let (outcome, tick) = ticks
+                .wait_for(Duration::from_secs(2), |_| true, || {})
+                .unwrap();
+            let (WaitOutcome::Matched, Some(tick)) = (outcome, tick) else {
+                break;
+            };
+            let (header, stages) = (tick.header, tick.stages);
+            drop(tick);
+            seen.clouds.push(header.tick);
+            if stages & aisle_messages::STAGE_CONTROLLER == 0 {
+                continue;
+            }
+            std::thread::sleep(Duration::from_millis(5));
+            seen.early |= ticks.receive().unwrap().is_some();
+            acks.publish(Stamp::of(&header), |m| {
+                m.node = NodeKind::TebController.code();
+                m.status = StageStatus::Done as u32;
+            })
+            .unwrap();
+        }
+        seen
+    })
+}
+
+/// The synthetic record holds the controller's idle acknowledgement of every tick not
+/// flagged for it, as a live controller gives when it sees such a tick; the live
+/// simulator never waited for them, and a controller that takes only the newest tick
+/// may skip some. The replay waits for the controller on its own ticks only.
+#[test]
+fn a_replay_does_not_wait_for_acknowledgements_the_simulator_did_not_wait_for() {
+    let path = std::env::temp_dir().join(format!("aisle-idle-{}.mcap", std::process::id()));
+    write_synthetic(
+        File::create(&path).unwrap(),
+        TICKS,
+        WriterOptions::default(),
+    )
+    .unwrap();
+    let file = RecordFile::open(&path).unwrap();
+    let idle_acks = TickBatches::new(&file, BatchOptions::default())
+        .filter(|b| b.stages == Some(0))
+        .filter(|b| b.acked.iter().any(|(n, _)| *n == NodeKind::TebController))
+        .count();
+    assert_eq!(idle_acks as u64, TICKS - TICKS / 5, "the record holds them");
+    let instance = Instance::unique(Path::new("/tmp/aisle-tt"));
+    let _cleanup = Cleanup(instance.clone(), vec![path.clone()]);
+    let (bus, announce) = Bus::create_instance(&instance, 7, TickMode::Lockstep).unwrap();
+    let opts = LockstepOptions {
+        publish: vec![s::TICK.to_string()],
+        consumers: vec![NodeKind::TebController],
+        compare: Vec::new(),
+        ack_timeout: Duration::from_secs(5),
+        ..options(&path)
+    };
+    let mut ports = LockstepPorts::open(&bus, &file, &opts).unwrap();
+    let (tx, rx) = mpsc::channel();
+    let controller = stand_in_controller(instance.clone(), tx);
+    while rx.try_recv().is_err() {
+        announce.update_connections().unwrap();
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    let summary = replay_lockstep(&mut ports, &file, &opts, &mut || Ok(())).unwrap();
+    let seen = controller.join().unwrap();
+    assert_eq!(summary.ticks, TICKS);
+    assert!(
+        !seen.early,
+        "a tick was published before the controller answered its own"
+    );
+    assert_eq!(*seen.clouds.last().unwrap(), TICKS - 1);
+    drop((ports, announce, bus));
 }
