@@ -24,6 +24,17 @@ impl InvalidKey {
     }
 }
 
+/// `v` as a message shows it: in exponent form when plain digits would run long (an
+/// absurd `1e300` is one word, not 301 digits).
+pub fn shown(v: f64) -> String {
+    let a = v.abs();
+    if a.is_finite() && (a >= 1e6 || (a > 0.0 && a < 1e-4)) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
 /// `v` is finite and > 0.
 pub fn positive(key: &str, v: f64) -> Result<(), InvalidKey> {
     if v.is_finite() && v > 0.0 {
@@ -31,7 +42,24 @@ pub fn positive(key: &str, v: f64) -> Result<(), InvalidKey> {
     } else {
         Err(InvalidKey::new(
             key,
-            format!("must be positive and finite, got {v}"),
+            format!("must be positive and finite, got {}", shown(v)),
+        ))
+    }
+}
+
+/// `v` is finite and <= `max` (`unit` follows the numbers in the message): a number that
+/// parses but no robot or sensor has, refused before it reaches the code.
+pub fn at_most(key: &str, v: f64, max: f64, unit: &str) -> Result<(), InvalidKey> {
+    if v.is_finite() && v <= max {
+        Ok(())
+    } else {
+        Err(InvalidKey::new(
+            key,
+            format!(
+                "must be at most {}{unit}, got {}{unit}",
+                shown(max),
+                shown(v)
+            ),
         ))
     }
 }
@@ -48,7 +76,7 @@ pub fn at_least(key: &str, v: f64, min: f64) -> Result<(), InvalidKey> {
     } else {
         Err(InvalidKey::new(
             key,
-            format!("must be >= {min} and finite, got {v}"),
+            format!("must be >= {min} and finite, got {}", shown(v)),
         ))
     }
 }
@@ -114,5 +142,18 @@ mod tests {
         assert!(interval("x", [0.0, 1.0]).is_ok() && interval("x", [1.0, 1.0]).is_err());
         assert!(in_range("x", 3u32, 1, 3).is_ok() && in_range("x", 4u32, 1, 3).is_err());
         assert!(non_empty("x", " ").is_err() && non_empty("x", "l").is_ok());
+        assert!(at_most("x", 5.0, 5.0, " m").is_ok());
+        assert_eq!(
+            at_most("x", 1e300, 5.0, " m").unwrap_err().to_string(),
+            "key `x`: must be at most 5 m, got 1e300 m"
+        );
+        assert_eq!(
+            positive("x", -1e-300).unwrap_err().reason,
+            "must be positive and finite, got -1e-300"
+        );
+        assert_eq!(
+            (shown(0.25), shown(2e6), shown(0.0)),
+            ("0.25".into(), "2e6".into(), "0".into())
+        );
     }
 }

@@ -6,7 +6,7 @@
 //! Every key is optional (missing keys take the seed's value) but unknown keys are
 //! refused, so a typo is an error rather than a silent default.
 
-use aisle_config::checks::{finite, non_empty, non_negative, positive};
+use aisle_config::checks::{at_least, at_most, finite, non_empty, non_negative, positive};
 use aisle_config::{InvalidKey, Validate};
 use aisle_geometry::{Footprint, Pose2};
 use serde::Deserialize;
@@ -197,32 +197,66 @@ impl Default for RobotConfig {
     }
 }
 
+/// The largest length `robot.toml` takes (m): sizes, track, wheel radius, margins.
+const MAX_SIZE_M: f64 = 10.0;
+/// The smallest wheel radius (m).
+const MIN_WHEEL_RADIUS_M: f64 = 0.001;
+/// The fastest wheel (rad/s).
+const MAX_WHEEL_SPEED: f64 = 10_000.0;
+/// The longest watchdog time (s).
+const MAX_WATCHDOG_S: f64 = 3600.0;
+
 impl Validate for RobotConfig {
     /// Checks every number; the error names the first offending key.
     fn validate(&self) -> Result<(), InvalidKey> {
         non_empty("urdf", &self.urdf.to_string_lossy())?;
         let k = &self.kinematics;
+        // Upper bounds far beyond any mobile robot: a number past them is a typo or a
+        // unit slip, refused here rather than met as a robot that cannot move.
         positive("kinematics.track_width", k.track_width)?;
-        positive("kinematics.wheel_radius", k.wheel_radius)?;
+        at_most("kinematics.track_width", k.track_width, MAX_SIZE_M, " m")?;
+        at_least(
+            "kinematics.wheel_radius",
+            k.wheel_radius,
+            MIN_WHEEL_RADIUS_M,
+        )?;
+        at_most("kinematics.wheel_radius", k.wheel_radius, MAX_SIZE_M, " m")?;
         positive("kinematics.wheel_speed_limit", k.wheel_speed_limit)?;
+        at_most(
+            "kinematics.wheel_speed_limit",
+            k.wheel_speed_limit,
+            MAX_WHEEL_SPEED,
+            " rad/s",
+        )?;
         positive("body.height", self.body.height)?;
+        at_most("body.height", self.body.height, MAX_SIZE_M, " m")?;
         for (name, f) in [
             ("alone", &self.footprint.alone),
             ("carrying", &self.footprint.carrying),
         ] {
-            positive(&format!("footprint.{name}.length"), f.length)?;
-            positive(&format!("footprint.{name}.width"), f.width)?;
-            non_negative(&format!("footprint.{name}.margin"), f.margin)?;
+            for (what, v) in [("length", f.length), ("width", f.width)] {
+                let key = format!("footprint.{name}.{what}");
+                positive(&key, v)?;
+                at_most(&key, v, MAX_SIZE_M, " m")?;
+            }
+            let key = format!("footprint.{name}.margin");
+            non_negative(&key, f.margin)?;
+            at_most(&key, f.margin, MAX_SIZE_M, " m")?;
         }
         non_empty("lidar_mount.link", &self.lidar_mount.link)?;
         finite("lidar_mount.offset", &self.lidar_mount.offset)?;
         finite("lidar_mount.rpy", &self.lidar_mount.rpy)?;
         non_empty("carry.link", &self.carry.link)?;
-        positive(
-            "watchdog.hold_last_command",
-            self.watchdog.hold_last_command,
-        )?;
-        positive("watchdog.late_trajectory", self.watchdog.late_trajectory)?;
+        for (key, v) in [
+            (
+                "watchdog.hold_last_command",
+                self.watchdog.hold_last_command,
+            ),
+            ("watchdog.late_trajectory", self.watchdog.late_trajectory),
+        ] {
+            positive(key, v)?;
+            at_most(key, v, MAX_WATCHDOG_S, " s")?;
+        }
         finite("start.pose", &self.start.pose)?;
         Ok(())
     }
@@ -295,6 +329,44 @@ mod tests {
             .to_string();
         assert!(e.contains("robot.toml:3:"), "{e}");
         assert!(e.contains("footprint.alone.width"), "{e}");
+    }
+
+    #[test]
+    fn absurd_numbers_are_refused_naming_key_line_and_value() {
+        for (text, line, key, got) in [
+            (
+                "[kinematics]\nwheel_radius = 1e-300\n",
+                2,
+                "kinematics.wheel_radius",
+                "1e-300",
+            ),
+            (
+                "[kinematics]\n\nwheel_speed_limit = 1e300\n",
+                3,
+                "kinematics.wheel_speed_limit",
+                "1e300 rad/s",
+            ),
+            ("[body]\nheight = 40.0\n", 2, "body.height", "40 m"),
+            (
+                "[footprint.carrying]\nlength = 0.88\nwidth = 0.8\nmargin = 12.0\n",
+                4,
+                "footprint.carrying.margin",
+                "12 m",
+            ),
+            (
+                "[watchdog]\nlate_trajectory = 86400.0\n",
+                2,
+                "watchdog.late_trajectory",
+                "86400 s",
+            ),
+        ] {
+            let e = parse::<RobotConfig>(Path::new("robot.toml"), text)
+                .unwrap_err()
+                .to_string();
+            assert!(e.starts_with(&format!("robot.toml:{line}:")), "{e}");
+            assert!(e.contains(key) && e.contains(got), "{e}");
+            assert!(e.len() < 200, "{e}");
+        }
     }
 
     #[test]

@@ -6,6 +6,7 @@
 //! not here but in `robot.toml` (`lidar_mount`, see [`crate::MountConfig`]).
 
 use crate::BeamGeometry;
+use aisle_config::checks::{at_most, positive};
 use aisle_config::{InvalidKey, Validate};
 use serde::Deserialize;
 
@@ -160,14 +161,14 @@ impl LidarConfig {
     }
 }
 
+/// The longest `max_range` taken (m).
+const MAX_RANGE_M: f64 = 1000.0;
+
 impl Validate for LidarConfig {
     fn validate(&self) -> Result<(), InvalidKey> {
-        if !(self.max_range.is_finite() && self.max_range > 0.0) {
-            return Err(invalid(
-                "max_range",
-                format!("must be positive and finite, got {}", self.max_range),
-            ));
-        }
+        positive("max_range", self.max_range)?;
+        // No lidar reaches a kilometre; a larger number is a unit slip (mm for m).
+        at_most("max_range", self.max_range, MAX_RANGE_M, " m")?;
         self.columns()?;
         if self.azimuth_max_deg - self.azimuth_min_deg > 360.0 {
             return Err(invalid(
@@ -243,6 +244,10 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("l.toml:2:") && e.contains("`max_range`"), "{e}");
+        let e = parse::<LidarConfig>(Path::new("l.toml"), "max_range = 12000.0\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("must be at most 1000 m, got 12000 m"), "{e}");
     }
 
     #[test]
