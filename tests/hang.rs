@@ -198,8 +198,14 @@ fn every_node_type_hung_in_realtime_stops_the_robot_and_is_replaced() {
         assert_eq!(
             moved_after(&r.driven_path, rest_by),
             Some(false),
-            "{node} hung at t >= {:.2} s: the robot still moved after {rest_by:.2} s",
-            t - silent
+            "{node} hung at t >= {:.2} s: the robot still moved after {rest_by:.2} s; \
+             path from there: {:?}; log: {log:#?}",
+            t - silent,
+            r.driven_path
+                .iter()
+                .filter(|p| p[0] >= t - silent - 0.3)
+                .take(12)
+                .collect::<Vec<_>>()
         );
     }
 }
