@@ -13,27 +13,22 @@
 use crate::reader::RecordFile;
 use aisle_messages::NodeKind;
 use aisle_node::Graph;
-use aisle_node::graph::Acknowledges;
 use std::path::Path;
 
 /// The attachment that holds the recorded run's graph.
 const GRAPH_FILE: &str = "graph.toml";
 
-/// Each node's acknowledgement rule in the recorded run.
+/// Each node's acknowledgement rule in the recorded run: its graph.
 #[derive(Debug, Clone, Default)]
 pub struct AckRules {
-    /// Empty: every recorded acknowledgement is awaited (a graph that did not parse).
-    rules: Vec<(NodeKind, Acknowledges)>,
+    /// `None`: every recorded acknowledgement is awaited (a graph that did not parse).
+    graph: Option<Graph>,
 }
 
 impl AckRules {
-    /// The rules of `graph`, for the built-in nodes it declares.
-    pub fn of_graph(graph: &Graph) -> AckRules {
-        let rules = NodeKind::BUILT_IN
-            .iter()
-            .filter_map(|k| graph.node(*k).map(|d| (*k, d.acknowledges)))
-            .collect();
-        AckRules { rules }
+    /// The rules of `graph`.
+    pub fn of_graph(graph: Graph) -> AckRules {
+        AckRules { graph: Some(graph) }
     }
 
     /// The rules of the graph attached to `file`, or of the shipped graph when none is
@@ -46,11 +41,11 @@ impl AckRules {
             .into_iter()
             .find(|a| a.name == GRAPH_FILE);
         let Some(a) = attached else {
-            return AckRules::of_graph(&Graph::shipped());
+            return AckRules::of_graph(Graph::shipped());
         };
         let text = String::from_utf8_lossy(&a.data);
         match Graph::parse(Path::new(GRAPH_FILE), &text) {
-            Ok(g) => AckRules::of_graph(&g),
+            Ok(g) => AckRules::of_graph(g),
             Err(e) => {
                 tracing::warn!(
                     "{}: the attached {GRAPH_FILE} does not parse ({e}); every recorded \
@@ -63,10 +58,12 @@ impl AckRules {
     }
 
     /// Whether the live simulator waited for `node` on a tick flagged `stages` (`None`:
-    /// the tick's `Tick` is not in the record, so nothing says it may be skipped).
+    /// the tick's `Tick` is not in the record, so nothing says it may be skipped; a
+    /// node the graph does not declare is awaited too).
     pub fn awaited(&self, node: NodeKind, stages: Option<u32>) -> bool {
-        match (self.rules.iter().find(|(k, _)| *k == node), stages) {
-            (Some((_, rule)), Some(stages)) => rule.tick(stages),
+        let decl = self.graph.as_ref().and_then(|g| g.node(node));
+        match (decl, stages) {
+            (Some(decl), Some(stages)) => decl.acknowledges.tick(stages),
             _ => true,
         }
     }
@@ -79,7 +76,7 @@ mod tests {
 
     #[test]
     fn the_controller_is_awaited_on_controller_ticks_only() {
-        let rules = AckRules::of_graph(&Graph::shipped());
+        let rules = AckRules::of_graph(Graph::shipped());
         let c = NodeKind::TebController;
         assert!(rules.awaited(c, Some(STAGE_CONTROLLER)));
         assert!(!rules.awaited(c, Some(0)));
