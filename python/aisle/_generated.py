@@ -7,8 +7,8 @@ import ctypes
 import enum
 from typing import NamedTuple
 
-SCHEMA_HASH = 0xcd203eefb5b6d254
-SCHEMA_HASH_HEX = "cd203eefb5b6d254"
+SCHEMA_HASH = 0x48258866841d6193
+SCHEMA_HASH_HEX = "48258866841d6193"
 
 # Capacities and flag bits.
 STAGE_CONTROLLER = 1
@@ -432,9 +432,9 @@ class MapperControl(ctypes.Structure):
 
 
 class PlanRequest(ctypes.Structure):
-    """`aisle.PlanRequest.v2`: 584 bytes, align 8."""
+    """`aisle.PlanRequest.v3`: 584 bytes, align 8."""
 
-    TYPE_NAME = "aisle.PlanRequest.v2"
+    TYPE_NAME = "aisle.PlanRequest.v3"
     _fields_ = [
         ("header", Header),
         ("request_id", ctypes.c_uint64),
@@ -448,7 +448,7 @@ class PlanRequest(ctypes.Structure):
         ("timeout_ms", ctypes.c_uint32),
         ("dock", ctypes.c_uint32),
         ("free_heading", ctypes.c_uint32),
-        ("_pad", ctypes.c_uint32),
+        ("fixed_budget", ctypes.c_uint32),
         ("body", RectMsg),
         ("parts", RectMsg * 8),
     ]
@@ -714,7 +714,7 @@ LAYOUTS = {
     CellChangeMsg: (16, 8, (("index", 0, 8), ("value", 8, 1), ("_pad", 9, 7), )),
     MapChanges: (262224, 8, (("header", 0, 48), ("base_version", 48, 8), ("version", 56, 8), ("width", 64, 4), ("height", 68, 4), ("len", 72, 4), ("_pad", 76, 4), ("changes", 80, 262144), )),
     MapperControl: (1688, 8, (("header", 0, 48), ("ignore", 48, 48), ("carried", 96, 48), ("placed_count", 144, 4), ("_pad", 148, 4), ("placed", 152, 1536), )),
-    PlanRequest: (584, 8, (("header", 0, 48), ("request_id", 48, 8), ("start", 56, 24), ("goal", 80, 24), ("footprint_length", 104, 8), ("footprint_width", 112, 8), ("margin", 120, 8), ("use_detections", 128, 4), ("max_expansions", 132, 4), ("timeout_ms", 136, 4), ("dock", 140, 4), ("free_heading", 144, 4), ("_pad", 148, 4), ("body", 152, 48), ("parts", 200, 384), )),
+    PlanRequest: (584, 8, (("header", 0, 48), ("request_id", 48, 8), ("start", 56, 24), ("goal", 80, 24), ("footprint_length", 104, 8), ("footprint_width", 112, 8), ("margin", 120, 8), ("use_detections", 128, 4), ("max_expansions", 132, 4), ("timeout_ms", 136, 4), ("dock", 140, 4), ("free_heading", 144, 4), ("fixed_budget", 148, 4), ("body", 152, 48), ("parts", 200, 384), )),
     PlanResponse: (131168, 8, (("header", 0, 48), ("request_id", 48, 8), ("status", 56, 4), ("expansions", 60, 4), ("solve_ns", 64, 8), ("path_length", 72, 8), ("len", 80, 4), ("straight", 84, 4), ("split", 88, 4), ("_pad", 92, 4), ("poses", 96, 131072), )),
     ControllerGoal: (131232, 8, (("header", 0, 48), ("goal_id", 48, 8), ("mode", 56, 4), ("len", 60, 4), ("footprint_length", 64, 8), ("footprint_width", 72, 8), ("margin", 80, 8), ("goal_tolerance", 88, 24), ("max_velocity", 112, 16), ("look_ahead_time", 128, 8), ("target", 136, 24), ("reference", 160, 131072), )),
     Trajectory: (28792, 8, (("header", 0, 48), ("goal_id", 48, 8), ("start_ns", 56, 8), ("inputs_tick", 64, 8), ("len", 72, 4), ("poses_len", 76, 4), ("exit_flag", 80, 4), ("last_feasible_index", 84, 4), ("reached_goal", 88, 4), ("iterations", 92, 4), ("cost", 96, 8), ("solve_ns", 104, 8), ("max_violation", 112, 8), ("commands", 120, 12288), ("poses", 12408, 16384), )),

@@ -202,7 +202,7 @@ message!(
 
 message!(
     /// Ask the global planner for a reference path.
-    PlanRequest = "aisle.PlanRequest.v2" size 584 {
+    PlanRequest = "aisle.PlanRequest.v3" size 584 {
         header: Header,
         request_id: u64,
         start: Pose2Msg,
@@ -212,6 +212,8 @@ message!(
         margin: f64,
         /// 1: plan on the global map with lidar detections; 0: static map only.
         use_detections: u32,
+        /// Expansion budget (0: the planner's default). It grows with the area the goal
+        /// can be reached from, unless `fixed_budget`.
         max_expansions: u32,
         /// Wall-clock bound the planner enforces on top of the expansion budget.
         timeout_ms: u32,
@@ -221,7 +223,9 @@ message!(
         dock: u32,
         /// 1: the goal's heading is free (docking: the planner chooses the side).
         free_heading: u32,
-        _pad: u32,
+        /// 1: `max_expansions` is the most the whole request expands (every search it
+        /// makes), not raised with the reachable area: a try the asker has a fallback for.
+        fixed_budget: u32,
         /// The body the robot drives under (map frame; `valid` 0 when `dock` is 0).
         body: RectMsg,
         /// Its parts the robot can hit (a rack's legs), map frame; `valid` 0 ends the list.

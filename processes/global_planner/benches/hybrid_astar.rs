@@ -29,6 +29,7 @@ fn segments(c: &mut Criterion) {
                 footprint: seg.footprint,
                 margin: seg.margin,
                 max_expansions: BUDGET,
+                fixed_budget: false,
             };
             let first = planner.plan(&req, &view).expect("seed segment plans");
             println!(
@@ -91,6 +92,7 @@ fn exhausted_budget(c: &mut Criterion) {
         footprint: ROBOT,
         margin: ROBOT_MARGIN,
         max_expansions: SMALL_BUDGET,
+        fixed_budget: false,
     };
     let e = planner
         .plan(&req, &view)
@@ -131,6 +133,7 @@ fn both_ends_and_start_alone(c: &mut Criterion, case: &str, map: &GridMap, seg: 
         footprint: seg.footprint,
         margin: seg.margin,
         max_expansions: BUDGET,
+        fixed_budget: false,
     };
     let mut g = c.benchmark_group("hybrid_astar");
     g.sample_size(10);

@@ -25,6 +25,7 @@ fn main() {
             footprint: seg.footprint,
             margin: seg.margin,
             max_expansions: 200_000,
+            fixed_budget: false,
         };
         for _ in 0..repeats {
             match planner.plan(&req, &map.view()) {

@@ -1,6 +1,23 @@
 //! The expansion budget of one request (`search_core.rs` spends it; `search.rs` sets
 //! it from the request and the area the goal can be reached from).
 
+use crate::config::PlannerConfig;
+use crate::search::PlanRequest;
+
+/// Expansions spent so far: by the whole request (every search it made), and by the
+/// search about to go on.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Spent {
+    request: u32,
+    search: u32,
+}
+
+impl Spent {
+    pub(crate) fn new(request: u32, search: u32) -> Spent {
+        Spent { request, search }
+    }
+}
+
 /// The expansion budget of one request: the request's own, raised to so many expansions
 /// per cell the goal can be reached from (`expansions_per_reachable_cell`) once it is
 /// spent, which is when the heuristic's backward search is run to its end to count them.
@@ -28,6 +45,27 @@ impl Budget {
                 limit: own,
                 per_cell: (per_cell > 0.0).then_some(per_cell),
             },
+        }
+    }
+
+    /// The budget of a turn of a search of `req`: `cap` (one turn of the searches from
+    /// both ends), the request's fixed budget less what its searches have spent, the
+    /// smaller of the two, or else the growing budget.
+    pub(crate) fn of_turn(
+        req: &PlanRequest,
+        cap: Option<u32>,
+        spent: Spent,
+        cfg: &PlannerConfig,
+        reachable: Option<u32>,
+    ) -> Budget {
+        let per_cell = cfg.expansions_per_reachable_cell;
+        // What the request has left, on top of what this search has done.
+        let left = req.max_expansions.saturating_sub(spent.request);
+        let fixed = req.fixed_budget.then(|| spent.search.saturating_add(left));
+        match (cap, fixed) {
+            (Some(cap), Some(fixed)) => Budget::capped(cap.min(fixed)),
+            (Some(limit), None) | (None, Some(limit)) => Budget::capped(limit),
+            (None, None) => Budget::new(req.max_expansions, per_cell, reachable),
         }
     }
 

@@ -44,6 +44,7 @@ impl Planner {
         map: &GridView,
         should_stop: &mut dyn FnMut() -> bool,
     ) -> Result<DockedPlan, PlanError> {
+        self.request_expansions = 0;
         let mut scratch = std::mem::take(&mut self.dock_scratch);
         let blocked = dock::with_body_blocked(map, &site.body, &mut scratch);
         let mut tally = Tally::default();
@@ -221,7 +222,7 @@ impl Planner {
                 goal: mv.to,
                 ..*req
             };
-            let Ok(plan) = self.plan_with_stop(&here, blocked, should_stop) else {
+            let Ok(plan) = self.plan_below(&here, blocked, f64::INFINITY, should_stop) else {
                 continue;
             };
             let cost = self.straight_cost(&mv) + mv.to.distance(&req.goal);

@@ -68,6 +68,7 @@ pub fn crossing(p: &GenParams) -> (PlanRequest, (f64, f64)) {
         footprint: ROBOT,
         margin: ROBOT_MARGIN,
         max_expansions: 200_000,
+        fixed_budget: false,
     };
     (req, (aisle[0] + 0.2, aisle[1] + 50.0))
 }

@@ -24,6 +24,7 @@
 //!     footprint: Footprint::new(0.508, 0.43),
 //!     margin: 0.1,
 //!     max_expansions: 200_000,
+//!     fixed_budget: false, // grows with the reachable area
 //! };
 //! match planner.plan(&req, &map.view()) {
 //!     Ok(plan) => println!("{} poses, {:.2} m", plan.path.len(), plan.stats.path_length),

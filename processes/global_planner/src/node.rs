@@ -116,6 +116,7 @@ impl PlannerStage {
             } else {
                 req.max_expansions
             },
+            fixed_budget: req.fixed_budget != 0,
         }
     }
 }
@@ -345,5 +346,16 @@ mod tests {
         bad.version = 9;
         assert!(update(&mut map, &mut static_map, Some(&bad), None));
         assert_eq!(map.version(), 5);
+    }
+
+    #[test]
+    fn a_request_s_budget_is_the_default_and_grows_unless_it_says_otherwise() {
+        let mut msg = zeroed_box::<PlanRequestMsg>();
+        let req = PlannerStage::request_of(&msg);
+        assert_eq!(req.max_expansions, DEFAULT_MAX_EXPANSIONS);
+        assert!(!req.fixed_budget);
+        (msg.max_expansions, msg.fixed_budget) = (5_000, 1);
+        let req = PlannerStage::request_of(&msg);
+        assert_eq!((req.max_expansions, req.fixed_budget), (5_000, true));
     }
 }

@@ -23,7 +23,7 @@
 //! stop callback (for a wall deadline) that is asked every few hundred expansions.
 
 use crate::both_ends::{Mirror, Side};
-use crate::budget::Budget;
+use crate::budget::{Budget, Spent};
 use crate::config::PlannerConfig;
 use crate::distance_map::{DistanceMap, EAGER_CELLS};
 use crate::error::{InvalidInput, PlanError, PlanErrorKind, PlanStats, check_input};
@@ -48,8 +48,14 @@ pub struct PlanRequest {
     /// Clearance added on every side of the footprint (m).
     pub margin: f64,
     /// Maximum number of node expansions before giving up (deterministic bound); more
-    /// where the reachable area calls for it (`expansions_per_reachable_cell`).
+    /// where the reachable area calls for it (`expansions_per_reachable_cell`), unless
+    /// `fixed_budget`.
     pub max_expansions: u32,
+    /// `max_expansions` is the most the whole request expands: it does not grow with the
+    /// reachable area, and it counts every search the request makes (both ends, a second
+    /// search from a boxed-in start, every docking candidate). For a try the caller has
+    /// a fallback for, whose worst case must stay short.
+    pub fixed_budget: bool,
 }
 
 /// A planned path: poses about `validation_distance` apart from exactly the start to
@@ -87,6 +93,9 @@ pub struct Planner {
     pub(crate) eager_small_maps: bool,
     /// The second search of a boxed-in start is under way (`both_ends.rs`).
     pub(crate) escaping: bool,
+    /// Expansions of the current request's searches so far, all of them (what a
+    /// `fixed_budget` holds).
+    pub(crate) request_expansions: u32,
 }
 
 impl Planner {
@@ -103,6 +112,7 @@ impl Planner {
             dock_scratch: Vec::new(),
             eager_small_maps: false,
             escaping: false,
+            request_expansions: 0,
         })
     }
 
@@ -163,6 +173,7 @@ impl Planner {
         map: &GridView,
         should_stop: &mut dyn FnMut() -> bool,
     ) -> Result<Plan, PlanError> {
+        self.request_expansions = 0;
         self.plan_below(req, map, f64::INFINITY, should_stop)
     }
 
@@ -179,8 +190,11 @@ impl Planner {
         mut side: Side<'_>,
         should_stop: &mut dyn FnMut() -> bool,
     ) -> Result<Plan, PlanError> {
+        let before = side.progress().stats.expansions;
         let outcome = self.plan_phases(req, map, bound, cap, &mut side, should_stop);
         let stats = side.progress().stats;
+        let spent = stats.expansions.saturating_sub(before);
+        self.request_expansions = self.request_expansions.saturating_add(spent);
         match outcome {
             Ok(path) => Ok(Plan { path, stats }),
             Err(kind) => Err(PlanError { kind, stats }),
@@ -241,11 +255,8 @@ impl Planner {
         stats.heuristic_cells = heur.settled;
         let h_start = h_start.flatten().ok_or(PlanErrorKind::NoPath)?;
 
-        let per_cell = cfg.expansions_per_reachable_cell;
-        let budget = match cap {
-            Some(cap) => Budget::capped(cap),
-            None => Budget::new(req.max_expansions, per_cell, eager.then_some(heur.settled)),
-        };
+        let spent = Spent::new(self.request_expansions, stats.expansions);
+        let budget = Budget::of_turn(req, cap, spent, cfg, eager.then_some(heur.settled));
         let bound = search_bound(cfg, model, heur, bound);
         let mut search = Search {
             cfg,

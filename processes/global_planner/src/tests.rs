@@ -140,6 +140,7 @@ fn request(s: &seed_map::Segment) -> PlanRequest {
         footprint: s.footprint,
         margin: s.margin,
         max_expansions: BUDGET,
+        fixed_budget: false,
     }
 }
 
@@ -224,6 +225,7 @@ fn hard_request() -> PlanRequest {
         footprint: ROBOT,
         margin: ROBOT_MARGIN,
         max_expansions: BUDGET,
+        fixed_budget: false,
     }
 }
 
@@ -243,6 +245,7 @@ fn hard_query_needs_search_and_stays_valid() {
         footprint: RACK,
         margin: RACK_MARGIN,
         max_expansions: BUDGET,
+        fixed_budget: false,
     };
     let plan = planner.plan(&req, &map.view()).unwrap();
     check_plan(&plan, &req, &map.view(), &cfg);
@@ -324,6 +327,7 @@ fn budget_and_stop_callback_end_the_search() {
     .unwrap();
     let req = PlanRequest {
         max_expansions: 3,
+        fixed_budget: false,
         ..hard_request()
     };
     let e = planner.plan(&req, &map.view()).unwrap_err();
@@ -378,6 +382,7 @@ fn bad_input_is_refused_not_panicked_on() {
         (
             PlanRequest {
                 max_expansions: 0,
+                fixed_budget: false,
                 ..base
             },
             InvalidInput::ZeroBudget,
@@ -444,6 +449,7 @@ fn tight_corridor_turns_on_the_spot() {
         footprint: ROBOT,
         margin: ROBOT_MARGIN,
         max_expansions: BUDGET,
+        fixed_budget: false,
     };
     let plan = planner.plan(&req, &map.view()).unwrap();
     check_plan(&plan, &req, &map.view(), &cfg);
@@ -458,6 +464,7 @@ fn tight_corridor_turns_on_the_spot() {
         .plan(
             &PlanRequest {
                 max_expansions: 20_000,
+                fixed_budget: false,
                 ..req
             },
             &map.view(),
@@ -527,6 +534,7 @@ fn a_door_narrower_than_the_inscribed_circle_is_proven_closed() {
             footprint: ROBOT,
             margin: ROBOT_MARGIN,
             max_expansions: BUDGET,
+            fixed_budget: false,
         };
         let e = planner.plan(&req, &map.view()).unwrap_err();
         assert_eq!(e.kind, PlanErrorKind::NoPath);
@@ -546,6 +554,7 @@ fn a_door_just_wide_enough_is_passed() {
         footprint: ROBOT,
         margin: ROBOT_MARGIN,
         max_expansions: BUDGET,
+        fixed_budget: false,
     };
     let plan = planner.plan(&req, &map.view()).unwrap();
     assert!(
@@ -615,6 +624,7 @@ pub(crate) fn stream(mut seed: u64) -> impl FnMut(i64) -> i64 {
 
 mod both_ends;
 mod bound;
+mod fixed_budget;
 mod goal_wall;
 mod golden;
 mod lazy;
@@ -631,6 +641,7 @@ fn the_budget_scales_with_the_reachable_area() {
     let map = seed_map::seed_map(10.0);
     let req = PlanRequest {
         max_expansions: 3,
+        fixed_budget: false,
         ..hard_request()
     };
     let mut planner = Planner::new(PlannerConfig::default()).unwrap();

@@ -23,6 +23,7 @@ fn request(start: Pose2, goal: Pose2) -> PlanRequest {
         footprint: Footprint::new(0.508, 0.43),
         margin: 0.1,
         max_expansions: 100_000,
+        fixed_budget: false,
     }
 }
 

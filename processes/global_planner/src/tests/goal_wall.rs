@@ -46,6 +46,7 @@ fn request(gap: f64, face: Face) -> PlanRequest {
         footprint: ROBOT,
         margin: ROBOT_MARGIN,
         max_expansions: BUDGET,
+        fixed_budget: false,
     }
 }
 

@@ -101,6 +101,7 @@ fn hard_and_rack(cfg: PlannerConfig) -> u64 {
         footprint: RACK,
         margin: RACK_MARGIN,
         max_expansions: BUDGET,
+        fixed_budget: false,
     };
     digest(&mut planner, &map.view(), &[hard_request(), rack])
 }
@@ -127,6 +128,7 @@ fn tight_corridor(allow_rotation: bool) -> u64 {
         footprint: ROBOT,
         margin: ROBOT_MARGIN,
         max_expansions: 20_000,
+        fixed_budget: false,
     };
     digest(&mut planner, &map.view(), &[req])
 }
@@ -157,6 +159,7 @@ fn failures() -> u64 {
         footprint: ROBOT,
         margin: ROBOT_MARGIN,
         max_expansions: BUDGET,
+        fixed_budget: false,
     };
     let reqs = [
         base,
@@ -164,6 +167,7 @@ fn failures() -> u64 {
             start: outside,
             goal: inside,
             max_expansions: 5_000,
+            fixed_budget: false,
             ..base
         },
         PlanRequest {
@@ -176,6 +180,7 @@ fn failures() -> u64 {
         },
         PlanRequest {
             max_expansions: 0,
+            fixed_budget: false,
             ..base
         },
     ];

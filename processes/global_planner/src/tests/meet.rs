@@ -17,6 +17,7 @@ fn carry(start: Pose2, goal: Pose2) -> PlanRequest {
         footprint: RACK,
         margin: RACK_MARGIN,
         max_expansions: BUDGET,
+        fixed_budget: false,
     }
 }
 

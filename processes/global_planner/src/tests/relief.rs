@@ -22,6 +22,7 @@ fn request(goal: Pose2) -> PlanRequest {
         footprint: ROBOT,
         margin: ROBOT_MARGIN,
         max_expansions: BUDGET,
+        fixed_budget: false,
     }
 }
 

@@ -27,6 +27,7 @@ fn paths_the_search_found_pass_the_output_check() {
             footprint: RACK,
             margin: RACK_MARGIN,
             max_expansions: 20_000,
+            fixed_budget: false,
         };
         let plan = planner
             .plan(&req, &map.view())

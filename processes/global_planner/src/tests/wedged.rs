@@ -33,6 +33,7 @@ fn a_wedged_start_leaves_by_a_short_move() {
         footprint: ROBOT,
         margin: ROBOT_MARGIN,
         max_expansions: BUDGET,
+        fixed_budget: false,
     };
     let plan = planner.plan(&req, &map.view()).unwrap();
     check_relieved(&plan, &req, &map.view(), &cfg);
@@ -68,6 +69,7 @@ fn request(start: Pose2) -> PlanRequest {
         footprint: ROBOT,
         margin: ROBOT_MARGIN,
         max_expansions: BUDGET,
+        fixed_budget: false,
     }
 }
 

@@ -72,6 +72,10 @@ pub enum Action {
         margin: f64,
         use_detections: bool,
         dock: Option<Dock>,
+        /// The most the planner may expand for this request, in all (a try with a
+        /// fallback, `backoff.rs`); `None`: the planner's own budget, which grows with
+        /// the reachable area.
+        fixed_budget: Option<u32>,
     },
     Follow {
         reference: Vec<PathPose>,

@@ -39,6 +39,7 @@ impl Session {
                     margin,
                     use_detections,
                     dock,
+                    fixed_budget,
                 } => {
                     let t0 = Instant::now();
                     let ask = Ask {
@@ -48,6 +49,7 @@ impl Session {
                         margin,
                         use_detections,
                         dock,
+                        fixed_budget,
                     };
                     let result = self.plan(&ask, planner_timeout)?;
                     *planner_ns += t0.elapsed().as_nanos() as u64;
@@ -131,6 +133,10 @@ impl Session {
             m.margin = ask.margin;
             m.use_detections = ask.use_detections as u32;
             m.timeout_ms = timeout.as_millis() as u32;
+            if let Some(budget) = ask.fixed_budget {
+                m.max_expansions = budget;
+                m.fixed_budget = 1;
+            }
             fill_dock(m, ask.dock.as_ref());
         };
         let mut id = self.ports.planner.send(stamp, request)?;
@@ -332,6 +338,7 @@ struct Ask {
     margin: f64,
     use_detections: bool,
     dock: Option<Dock>,
+    fixed_budget: Option<u32>,
 }
 
 /// A controller goal's pose, footprint, margin and tolerances.

@@ -98,9 +98,20 @@ impl Mission {
         }
         self.reset_margin();
         self.restoring = true;
-        tracing::info!("t = {now_s:.1} s: clear of the tight spot: planning with the full margin");
+        tracing::info!(
+            "t = {now_s:.1} s: clear of the tight spot: planning with the full margin \
+             (at most {} expansions)",
+            self.cfg.restore_max_expansions
+        );
         self.phase = Phase::Planning;
-        Some(vec![self.plan_action(pose, true)])
+        // The try has a fallback (the reduced-margin plan being driven): its search is
+        // bounded, where a search that finds nothing would otherwise spend the growing
+        // budget of a large hall, seconds with the planner busy.
+        let mut ask = self.plan_action(pose, true);
+        if let Action::Plan { fixed_budget, .. } = &mut ask {
+            *fixed_budget = Some(self.cfg.restore_max_expansions);
+        }
+        Some(vec![ask])
     }
 }
 

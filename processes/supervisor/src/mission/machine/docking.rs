@@ -34,6 +34,7 @@ impl Mission {
             margin,
             use_detections,
             dock,
+            fixed_budget: None,
         }
     }
 

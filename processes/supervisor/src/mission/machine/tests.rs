@@ -14,6 +14,7 @@ fn mission() -> Mission {
         update_rate_hz: 10.0,
         controller_period_s: 0.5,
         planner_timeout_s: 5.0,
+        restore_max_expansions: 10_000,
         goal_tolerance: [0.2; 3],
         leg: vec![
             LegSpec {
@@ -477,7 +478,18 @@ fn a_reduced_margin_lasts_until_the_robot_is_clear_of_the_spot() {
         why: "the start is in collision".into(),
         margin_bound: true,
     };
-    m.on_plan(0.0, p, Err(blocked));
+    // Backing off is no try: the planner's own budget, which grows with the hall.
+    let a = m.on_plan(0.0, p, Err(blocked));
+    assert!(
+        matches!(
+            a[..],
+            [Action::Plan {
+                fixed_budget: None,
+                ..
+            }]
+        ),
+        "{a:?}"
+    );
     let a = m.on_plan(0.1, p, Ok(Planned::plain(path())));
     assert!(
         matches!(a[0], Action::Follow { margin, .. } if (margin - 0.15).abs() < 1e-12),
@@ -485,10 +497,11 @@ fn a_reduced_margin_lasts_until_the_robot_is_clear_of_the_spot() {
     );
     // Still near where the backing off began: the reduced plan is driven on.
     assert!(m.on_tick(1.0, Pose2::new(0.6, 0.0, 0.0)).is_empty());
-    // Clear of it: a plan with the full margin.
+    // Clear of it: a plan with the full margin, a try whose search is bounded (the
+    // reduced plan is its fallback).
     let a = m.on_tick(1.1, Pose2::new(1.0, 0.0, 0.0));
     assert!(
-        matches!(a[..], [Action::Plan { margin, use_detections: true, .. }] if (margin - 0.3).abs() < 1e-12),
+        matches!(a[..], [Action::Plan { margin, use_detections: true, fixed_budget: Some(10_000), .. }] if (margin - 0.3).abs() < 1e-12),
         "{a:?}"
     );
     // Driven with the full margin, the leg asks for nothing more.
